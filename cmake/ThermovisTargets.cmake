@@ -1,0 +1,33 @@
+# Warnings go through an interface target so generated code (IDL) is spared.
+add_library(thermovis_warnings INTERFACE)
+add_library(thermovis::warnings ALIAS thermovis_warnings)
+target_compile_options(thermovis_warnings INTERFACE
+  -Wall -Wextra -Wpedantic -Wshadow -Wnon-virtual-dtor -Wold-style-cast -Wcast-align
+  -Woverloaded-virtual -Wformat=2
+  $<$<BOOL:${THERMOVIS_WERROR}>:-Werror>)
+
+# Subfolders that hold a CMakeLists.txt are added in name order; a new library or service
+# is a new folder, nothing else to edit.
+function(thermovis_add_subdirectories)
+  file(GLOB children LIST_DIRECTORIES true RELATIVE ${CMAKE_CURRENT_SOURCE_DIR}
+       CONFIGURE_DEPENDS ${CMAKE_CURRENT_SOURCE_DIR}/*)
+  list(SORT children)
+  foreach(child IN LISTS children)
+    if(IS_DIRECTORY ${CMAKE_CURRENT_SOURCE_DIR}/${child}
+       AND EXISTS ${CMAKE_CURRENT_SOURCE_DIR}/${child}/CMakeLists.txt)
+      add_subdirectory(${child})
+    endif()
+  endforeach()
+endfunction()
+
+# thermovis_add_library(NAME <name> SOURCES ... [PUBLIC_LIBS ...] [PRIVATE_LIBS ...])
+# Makes thermovis_<name> with alias thermovis::<name>, public headers in include/.
+function(thermovis_add_library)
+  cmake_parse_arguments(ARG "" "NAME" "SOURCES;PUBLIC_LIBS;PRIVATE_LIBS" ${ARGN})
+  add_library(thermovis_${ARG_NAME} ${ARG_SOURCES})
+  add_library(thermovis::${ARG_NAME} ALIAS thermovis_${ARG_NAME})
+  target_include_directories(thermovis_${ARG_NAME} PUBLIC
+    $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>)
+  target_link_libraries(thermovis_${ARG_NAME} PUBLIC ${ARG_PUBLIC_LIBS}
+    PRIVATE ${ARG_PRIVATE_LIBS} thermovis::warnings)
+endfunction()

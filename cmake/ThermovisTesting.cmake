@@ -1,0 +1,27 @@
+# thermovis_add_gtest(NAME <exe> SOURCES ... LIBS ... LABEL unit|integration|lab|bench [TIMEOUT s])
+# One CTest entry per test case, each with a label, a timeout and the test-data location.
+function(thermovis_add_gtest)
+  cmake_parse_arguments(ARG "" "NAME;LABEL;TIMEOUT" "SOURCES;LIBS" ${ARGN})
+  if(NOT ARG_TIMEOUT)
+    set(ARG_TIMEOUT 300)
+  endif()
+  add_executable(${ARG_NAME} ${ARG_SOURCES})
+  target_link_libraries(${ARG_NAME} PRIVATE ${ARG_LIBS} thermovis::test_support
+    GTest::gtest GTest::gtest_main thermovis::warnings)
+  gtest_discover_tests(${ARG_NAME}
+    DISCOVERY_TIMEOUT 60
+    PROPERTIES LABELS ${ARG_LABEL} TIMEOUT ${ARG_TIMEOUT}
+               ENVIRONMENT "THERMOVIS_BIN_DIR=${PROJECT_BINARY_DIR}/bin;THERMOVIS_SOURCE_DIR=${PROJECT_SOURCE_DIR}")
+endfunction()
+
+# thermovis_add_benchmark(NAME <exe> SOURCES ... LIBS ...): Google Benchmark executable,
+# registered as one CTest entry labelled bench that runs each benchmark briefly (a smoke run;
+# the figures come from running the executable itself).
+function(thermovis_add_benchmark)
+  cmake_parse_arguments(ARG "" "NAME" "SOURCES;LIBS" ${ARGN})
+  add_executable(${ARG_NAME} ${ARG_SOURCES})
+  target_link_libraries(${ARG_NAME} PRIVATE ${ARG_LIBS} thermovis::test_support
+    benchmark::benchmark thermovis::warnings)
+  add_test(NAME ${ARG_NAME}.smoke COMMAND ${ARG_NAME} --benchmark_min_time=0.01)
+  set_tests_properties(${ARG_NAME}.smoke PROPERTIES LABELS bench TIMEOUT 600)
+endfunction()

@@ -1,0 +1,43 @@
+#pragma once
+// Epipolar rectification ("limit correction") of a wide-angle stereo pair onto the rectified grid
+// of camera/rectified.hpp, and the per-camera maps from rectified pixels to raw pixels.
+//
+// Frames: the rig frame is the reference camera's (camera/rig.hpp). A rectified frame has its x axis
+// along the baseline (left camera centre -> right camera centre), z the mean of the two optical axes
+// made orthogonal to x, y = z cross x (down). The left and right rectified frames share this
+// rotation; their origins are the two camera centres. In them, an epipolar plane is one row.
+#include <Eigen/Geometry>
+#include <opencv2/core/mat.hpp>
+
+#include "thermovis/camera/rectified.hpp"
+#include "thermovis/camera/rig.hpp"
+
+namespace thermovis::rectify {
+
+struct StereoGeometry {
+  std::string left, right;               // camera names in the rig
+  Eigen::Isometry3d T_ref_left_rect;     // left rectified frame in the rig frame
+  Eigen::Isometry3d T_ref_right_rect;    // right rectified frame: same rotation, right centre
+  double baseline_m = 0.0;
+  camera::RectifiedCamera grid;          // the rectified image both eyes share
+};
+
+// Throws std::invalid_argument when the two cameras coincide.
+StereoGeometry make_stereo_geometry(const camera::Rig& rig, const camera::StereoPair& pair,
+                                    const camera::RectifiedIntrinsics& grid);
+
+// A grid that keeps the raw camera's centre resolution (f = the model's paraxial px per rad)
+// over `width` columns, with the height covering the same vertical field as the raw image
+// (equirectangular, centred).
+camera::RectifiedIntrinsics grid_matching_camera(const camera::RigCamera& raw, int width);
+
+// For every pixel of `grid` seen from the rectified frame T_ref_rect, the raw pixel of `camera`
+// (CV_32FC2: x = column, y = row) that sees the same scene point. Points are taken at
+// `registration_distance_m` from the rectified frame's origin; <= 0 means at infinity (pure
+// rotation, exact for the camera whose centre is that origin). Pixels with no valid ray get
+// (-1, -1). `roi` restricts the map to part of the grid (the map then has the roi's size).
+cv::Mat build_map(const camera::RigCamera& camera, const Eigen::Isometry3d& T_ref_rect,
+                  const camera::RectifiedCamera& grid, double registration_distance_m = 0.0,
+                  cv::Rect roi = {});
+
+}  // namespace thermovis::rectify

@@ -1,0 +1,88 @@
+#include "thermovis/rectify/stereo_geometry.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "thermovis/camera/taylor.hpp"
+
+namespace thermovis::rectify {
+
+StereoGeometry make_stereo_geometry(const camera::Rig& rig, const camera::StereoPair& pair,
+                                    const camera::RectifiedIntrinsics& grid) {
+  const auto& left = rig.camera(pair.left);
+  const auto& right = rig.camera(pair.right);
+  const Eigen::Vector3d c_left = left.T_ref_cam.translation();
+  const Eigen::Vector3d c_right = right.T_ref_cam.translation();
+  const Eigen::Vector3d baseline = c_right - c_left;
+  if (baseline.norm() < 1e-6) {
+    throw std::invalid_argument("stereo pair " + pair.left + "/" + pair.right + ": camera centres coincide");
+  }
+  const Eigen::Vector3d x = baseline.normalized();
+  Eigen::Vector3d z = left.T_ref_cam.linear().col(2) + right.T_ref_cam.linear().col(2);
+  z = (z - z.dot(x) * x).normalized();
+  const Eigen::Vector3d y = z.cross(x);
+  Eigen::Matrix3d r;
+  r << x, y, z;
+
+  StereoGeometry g{pair.left, pair.right, Eigen::Isometry3d::Identity(), Eigen::Isometry3d::Identity(),
+                   baseline.norm(), camera::RectifiedCamera(grid)};
+  g.T_ref_left_rect.linear() = r;
+  g.T_ref_left_rect.translation() = c_left;
+  g.T_ref_right_rect.linear() = r;
+  g.T_ref_right_rect.translation() = c_right;
+  return g;
+}
+
+camera::RectifiedIntrinsics grid_matching_camera(const camera::RigCamera& raw, int width) {
+  const auto* taylor = dynamic_cast<const camera::TaylorCamera*>(raw.model.get());
+  const cv::Size size = raw.model->image_size();
+  double f = 0.0;
+  if (taylor != nullptr) {
+    f = std::abs(taylor->intrinsics().pol.front());
+  } else {
+    // Any model: px per rad from the centre pixel's neighbours.
+    Eigen::Vector3d a, b;
+    raw.model->unproject({size.width / 2.0, size.height / 2.0}, a);
+    raw.model->unproject({size.width / 2.0 + 1.0, size.height / 2.0}, b);
+    f = 1.0 / std::acos(std::clamp(a.dot(b), -1.0, 1.0));
+  }
+  camera::RectifiedIntrinsics grid;
+  grid.width = width;
+  grid.f = f;
+  // Vertical field of the raw image on its centre column.
+  Eigen::Vector3d top, bottom;
+  raw.model->unproject({size.width / 2.0, -0.5}, top);
+  raw.model->unproject({size.width / 2.0, size.height - 0.5}, bottom);
+  const double vfov = std::acos(std::clamp(top.dot(bottom), -1.0, 1.0));
+  grid.height = std::max(2, static_cast<int>(std::lround(vfov * f)) / 2 * 2);
+  grid.cx = (grid.width - 1) / 2.0;
+  grid.cy = (grid.height - 1) / 2.0;
+  grid.projection = camera::RectifiedProjection::equirectangular;
+  return grid;
+}
+
+cv::Mat build_map(const camera::RigCamera& cam, const Eigen::Isometry3d& T_ref_rect,
+                  const camera::RectifiedCamera& grid, double registration_distance_m, cv::Rect roi) {
+  const cv::Size size = grid.image_size();
+  if (roi.area() == 0) roi = cv::Rect(0, 0, size.width, size.height);
+  roi &= cv::Rect(0, 0, size.width, size.height);
+  cv::Mat map(roi.size(), CV_32FC2, cv::Scalar(-1.0f, -1.0f));
+  const Eigen::Isometry3d T_cam_rect = cam.T_ref_cam.inverse() * T_ref_rect;
+  const bool at_infinity = !(registration_distance_m > 0.0);
+  for (int v = 0; v < roi.height; ++v) {
+    auto* out = map.ptr<cv::Vec2f>(v);
+    for (int u = 0; u < roi.width; ++u) {
+      Eigen::Vector3d ray;
+      if (!grid.unproject({u + roi.x, v + roi.y}, ray)) continue;
+      const Eigen::Vector3d in_cam = at_infinity ? Eigen::Vector3d(T_cam_rect.linear() * ray)
+                                                 : Eigen::Vector3d(T_cam_rect * (ray * registration_distance_m));
+      Eigen::Vector2d px;
+      if (!cam.model->project(in_cam, px)) continue;
+      out[u] = cv::Vec2f(static_cast<float>(px.x()), static_cast<float>(px.y()));
+    }
+  }
+  return map;
+}
+
+}  // namespace thermovis::rectify

@@ -1,0 +1,96 @@
+#include "thermovis/runtime/yaml_util.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+namespace thermovis::runtime {
+
+std::string where(const std::string& source, const YAML::Node& node) {
+  const YAML::Mark mark = node.Mark();
+  if (mark.line < 0) return source;
+  return source + ":" + std::to_string(mark.line + 1);
+}
+
+void check_keys(const std::string& source, const YAML::Node& node, const std::string& context,
+                std::initializer_list<const char*> allowed) {
+  if (!node.IsMap()) throw ConfigError(where(source, node) + ": " + context + ": expected a map");
+  for (const auto& item : node) {
+    const std::string key = item.first.as<std::string>();
+    bool known = false;
+    for (const char* name : allowed) known = known || key == name;
+    if (!known) {
+      std::string list;
+      for (const char* name : allowed) list += (list.empty() ? "" : ", ") + std::string(name);
+      throw ConfigError(where(source, item.first) + ": " + context + ": unknown key '" + key +
+                        "' (allowed: " + list + ")");
+    }
+  }
+}
+
+YAML::Node require(const std::string& source, const YAML::Node& node, const std::string& context,
+                   const std::string& key) {
+  if (!node.IsMap()) throw ConfigError(where(source, node) + ": " + context + ": expected a map");
+  YAML::Node child = node[key];
+  if (!child) throw ConfigError(where(source, node) + ": " + context + ": missing key '" + key + "'");
+  return child;
+}
+
+double as_double(const std::string& source, const YAML::Node& node, const std::string& context) {
+  double value = 0.0;
+  if (!node.IsScalar() || !YAML::convert<double>::decode(node, value) || !std::isfinite(value)) {
+    throw ConfigError(where(source, node) + ": " + context + ": expected a finite number");
+  }
+  return value;
+}
+
+int as_int(const std::string& source, const YAML::Node& node, const std::string& context) {
+  int value = 0;
+  if (!node.IsScalar() || !YAML::convert<int>::decode(node, value)) {
+    throw ConfigError(where(source, node) + ": " + context + ": expected an integer");
+  }
+  return value;
+}
+
+std::string as_string(const std::string& source, const YAML::Node& node, const std::string& context) {
+  if (!node.IsScalar()) throw ConfigError(where(source, node) + ": " + context + ": expected a string");
+  return node.Scalar();
+}
+
+bool as_bool(const std::string& source, const YAML::Node& node, const std::string& context) {
+  bool value = false;
+  if (!node.IsScalar() || !YAML::convert<bool>::decode(node, value)) {
+    throw ConfigError(where(source, node) + ": " + context + ": expected true or false");
+  }
+  return value;
+}
+
+std::vector<double> as_doubles(const std::string& source, const YAML::Node& node,
+                               const std::string& context, int size) {
+  if (!node.IsSequence()) throw ConfigError(where(source, node) + ": " + context + ": expected a list");
+  if (size >= 0 && static_cast<int>(node.size()) != size) {
+    throw ConfigError(where(source, node) + ": " + context + ": expected " + std::to_string(size) +
+                      " numbers, found " + std::to_string(node.size()));
+  }
+  std::vector<double> values;
+  for (const auto& item : node) values.push_back(as_double(source, item, context));
+  return values;
+}
+
+YAML::Node parse_yaml(const std::string& text, const std::string& source) {
+  try {
+    return YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    throw ConfigError(source + ":" + std::to_string(e.mark.line + 1) + ": YAML syntax: " + e.msg);
+  }
+}
+
+YAML::Node load_yaml_file(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw ConfigError(path + ": cannot open (missing or unreadable)");
+  std::stringstream text;
+  text << in.rdbuf();
+  return parse_yaml(text.str(), path);
+}
+
+}  // namespace thermovis::runtime

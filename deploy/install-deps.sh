@@ -1,0 +1,33 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages thermovis needs to build, test and run. Idempotent: does
+# nothing when every package is already installed. Needs root (or sudo) only when installing.
+set -euo pipefail
+
+packages=(
+  build-essential cmake pkg-config git
+  libopencv-dev libopencv-contrib-dev
+  libeigen3-dev libyaml-cpp-dev nlohmann-json3-dev libcli11-dev libceres-dev
+  libgtest-dev libgmock-dev libbenchmark-dev
+  libfastrtps-dev fastddsgen fastdds-tools
+  cyclonedds-dev cyclonedds-tools
+  clang-format iproute2 procps
+)
+
+missing=()
+for pkg in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$pkg" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$pkg")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: all ${#packages[@]} packages present"
+  exit 0
+fi
+
+echo "install-deps: installing ${missing[*]}"
+sudo_cmd=()
+if [ "$(id -u)" -ne 0 ]; then sudo_cmd=(sudo); fi
+export DEBIAN_FRONTEND=noninteractive
+"${sudo_cmd[@]}" apt-get update -q
+"${sudo_cmd[@]}" apt-get install -y -q --no-install-recommends "${missing[@]}"

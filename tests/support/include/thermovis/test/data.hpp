@@ -1,0 +1,33 @@
+#pragma once
+// Where tests find the shared test data, the source tree and the built executables.
+#include <filesystem>
+#include <gtest/gtest.h>
+#include <string>
+
+namespace thermovis::test {
+
+// The test-data root: $THERMOVIS_TEST_DATA if set, else ../shared/data beside the source tree.
+std::filesystem::path data_root();
+
+// data_root()/relative if it exists, else an empty path.
+std::filesystem::path data_path(const std::string& relative);
+
+// The project source root (for shipped configs under deploy/).
+std::filesystem::path source_root();
+
+// The folder holding the built executables (build/bin).
+std::filesystem::path bin_dir();
+
+// A fresh, empty temporary folder for one test, removed by the caller or at exit of the test.
+std::filesystem::path temp_dir(const std::string& name);
+
+}  // namespace thermovis::test
+
+// Skips the current test with a message when a data folder is missing, so the project still
+// builds and tests where the shared data is not present.
+#define THERMOVIS_REQUIRE_DATA(var, relative)                                   \
+  const std::filesystem::path var = ::thermovis::test::data_path(relative);     \
+  if (var.empty()) {                                                             \
+    GTEST_SKIP() << "test data missing: " << (relative) << " under "             \
+                 << ::thermovis::test::data_root() << " (set THERMOVIS_TEST_DATA)"; \
+  }
