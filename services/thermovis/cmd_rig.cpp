@@ -17,9 +17,10 @@ struct Options {
 };
 
 int run_rig_info(const Options& opt) {
-  const auto rig = thermovis::runtime::load_rig(opt.rig.empty() ? thermovis::runtime::default_rig_path()
-                                                                : std::filesystem::path(opt.rig));
-  nlohmann::json out{{"rig", rig.name}, {"reference", rig.reference}, {"cameras", nlohmann::json::array()}};
+  const auto rig = thermovis::runtime::load_rig(
+      opt.rig.empty() ? thermovis::runtime::default_rig_path() : std::filesystem::path(opt.rig));
+  nlohmann::json out{
+      {"rig", rig.name}, {"reference", rig.reference}, {"cameras", nlohmann::json::array()}};
   for (const auto& cam : rig.cameras) {
     const auto* taylor = dynamic_cast<const thermovis::camera::TaylorCamera*>(cam.model.get());
     if (taylor == nullptr) continue;
@@ -50,12 +51,14 @@ int run_rig_info(const Options& opt) {
   std::cout << std::left << std::setw(16) << "camera" << std::right << std::setw(11) << "size"
             << std::setw(9) << "HFOV" << std::setw(9) << "VFOV" << std::setw(9) << "DFOV"
             << std::setw(12) << "corner dist" << std::setw(10) << "f (mm)" << std::setw(14)
-            << "invpol err px" << "\n";
+            << "invpol err px"
+            << "\n";
   std::cout << std::fixed;
   for (const auto& c : out["cameras"]) {
     std::cout << std::left << std::setw(16) << c["name"].get<std::string>() << std::right
               << std::setw(11)
-              << (std::to_string(c["width"].get<int>()) + "x" + std::to_string(c["height"].get<int>()))
+              << (std::to_string(c["width"].get<int>()) + "x" +
+                  std::to_string(c["height"].get<int>()))
               << std::setprecision(1) << std::setw(8) << c["hfov_deg"].get<double>() << "\u00b0"
               << std::setw(8) << c["vfov_deg"].get<double>() << "\u00b0" << std::setw(8)
               << c["dfov_deg"].get<double>() << "\u00b0" << std::setw(11)
@@ -63,8 +66,9 @@ int run_rig_info(const Options& opt) {
               << std::setw(10) << c["focal_mm"].get<double>() << std::setprecision(5)
               << std::setw(14) << c["invpol_max_error_px"].get<double>() << "\n";
   }
-  std::cout << std::setprecision(4) << "baselines: visible " << out["baselines_m"]["visible"].get<double>()
-            << " m, infrared " << out["baselines_m"]["infrared"].get<double>() << " m\n";
+  std::cout << std::setprecision(4) << "baselines: visible "
+            << out["baselines_m"]["visible"].get<double>() << " m, infrared "
+            << out["baselines_m"]["infrared"].get<double>() << " m\n";
   for (const auto& note : rig.notes) std::cout << "note: " << note << "\n";
   return 0;
 }

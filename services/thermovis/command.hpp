@@ -30,6 +30,6 @@ int run_main(int argc, char** argv);
 
 #define THERMOVIS_CONCAT_INNER(a, b) a##b
 #define THERMOVIS_CONCAT(a, b) THERMOVIS_CONCAT_INNER(a, b)
-#define THERMOVIS_COMMAND(path, description, setup_fn)                        \
+#define THERMOVIS_COMMAND(path, description, setup_fn)                          \
   static const bool THERMOVIS_CONCAT(thermovis_command_registered_, __LINE__) = \
       ::thermovis::cli::register_command({path, description, setup_fn})

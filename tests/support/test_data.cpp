@@ -33,8 +33,8 @@ std::filesystem::path bin_dir() {
 
 std::filesystem::path temp_dir(const std::string& name) {
   std::random_device rd;
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
-                                    ("thermovis-" + name + "-" + std::to_string(rd()));
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("thermovis-" + name + "-" + std::to_string(rd()));
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir;

@@ -49,7 +49,8 @@ FieldFigures field_figures(const TaylorCamera& cam, int stride) {
     for (int x = 0; x < in.width; x += step) {
       Eigen::Vector3d ray;
       Eigen::Vector2d exact, poly;
-      if (!cam.unproject({x, y}, ray) || !cam.project(ray, exact) || !cam.project_invpol(ray, poly)) continue;
+      if (!cam.unproject({x, y}, ray) || !cam.project(ray, exact) || !cam.project_invpol(ray, poly))
+        continue;
       f.invpol_max_error_px = std::max(f.invpol_max_error_px, (exact - poly).norm());
     }
   }

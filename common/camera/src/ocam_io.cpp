@@ -58,8 +58,10 @@ std::vector<double> counted(const std::string& line, const std::string& source,
 TaylorIntrinsics parse_ocam_calib_results(std::istream& in, const std::string& source_name) {
   const auto lines = data_lines(in);
   if (lines.size() < 5) {
-    throw std::runtime_error(source_name + ": expected 5 blocks (polynomial, inverse polynomial, "
-                             "centre, affine, image size), found " + std::to_string(lines.size()));
+    throw std::runtime_error(source_name +
+                             ": expected 5 blocks (polynomial, inverse polynomial, "
+                             "centre, affine, image size), found " +
+                             std::to_string(lines.size()));
   }
   TaylorIntrinsics intr;
   intr.pol = counted(lines[0], source_name, "polynomial");
@@ -69,7 +71,8 @@ TaylorIntrinsics parse_ocam_calib_results(std::istream& in, const std::string& s
   const auto size = numbers(lines[4], source_name, "image size");
   if (centre.size() != 2) throw std::runtime_error(source_name + ": centre: expected 'row column'");
   if (affine.size() != 3) throw std::runtime_error(source_name + ": affine: expected 'c d e'");
-  if (size.size() != 2) throw std::runtime_error(source_name + ": image size: expected 'height width'");
+  if (size.size() != 2)
+    throw std::runtime_error(source_name + ": image size: expected 'height width'");
   intr.xc = centre[0];
   intr.yc = centre[1];
   intr.c = affine[0];
@@ -105,12 +108,12 @@ void write_ocam_calib_results(const TaylorIntrinsics& intr, std::ostream& out) {
   for (double a : full.invpol) out << ' ' << a;
   out << "\n\n#center: \"row\" and \"column\", starting from 0 (C convention)\n\n"
       << full.xc << ' ' << full.yc << "\n\n#affine parameters \"c\", \"d\", \"e\"\n\n"
-      << full.c << ' ' << full.d << ' ' << full.e
-      << "\n\n#image size: \"height\" and \"width\"\n\n"
+      << full.c << ' ' << full.d << ' ' << full.e << "\n\n#image size: \"height\" and \"width\"\n\n"
       << full.height << ' ' << full.width << "\n\n";
 }
 
-void write_ocam_calib_results(const TaylorIntrinsics& intrinsics, const std::filesystem::path& path) {
+void write_ocam_calib_results(const TaylorIntrinsics& intrinsics,
+                              const std::filesystem::path& path) {
   std::ostringstream text;
   write_ocam_calib_results(intrinsics, text);
   std::ofstream out(path);

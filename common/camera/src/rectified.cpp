@@ -33,7 +33,8 @@ double RectifiedCamera::alpha_of_column(double column) const {
 }
 
 double RectifiedCamera::column_of_alpha(double alpha) const {
-  const double t = intr_.projection == RectifiedProjection::equirectangular ? alpha : std::tan(alpha);
+  const double t =
+      intr_.projection == RectifiedProjection::equirectangular ? alpha : std::tan(alpha);
   return intr_.cx + intr_.f * t;
 }
 

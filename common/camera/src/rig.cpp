@@ -10,8 +10,8 @@ const RigCamera& Rig::camera(const std::string& camera_name) const {
   }
   std::string known;
   for (const auto& cam : cameras) known += (known.empty() ? "" : ", ") + cam.name;
-  throw std::out_of_range("rig '" + name + "' has no camera '" + camera_name + "' (it has: " +
-                          known + ")");
+  throw std::out_of_range("rig '" + name + "' has no camera '" + camera_name +
+                          "' (it has: " + known + ")");
 }
 
 bool Rig::has_camera(const std::string& camera_name) const {

@@ -40,12 +40,14 @@ TaylorCamera::TaylorCamera(TaylorIntrinsics intrinsics) : intr_(std::move(intrin
   require(intr_.width > 0 && intr_.height > 0, "image size must be positive");
   require(intr_.pol.size() >= 2, "polynomial needs at least a0 and a1");
   for (double a : intr_.pol) require(std::isfinite(a), "polynomial coefficient is not finite");
-  for (double a : intr_.invpol) require(std::isfinite(a), "inverse polynomial coefficient is not finite");
+  for (double a : intr_.invpol)
+    require(std::isfinite(a), "inverse polynomial coefficient is not finite");
   require(std::isfinite(intr_.xc) && std::isfinite(intr_.yc), "centre is not finite");
   require(std::isfinite(intr_.c) && std::isfinite(intr_.d) && std::isfinite(intr_.e),
           "affine c, d, e not finite");
   require(intr_.pol[0] < 0.0, "a0 must be negative (OCamCalib's optical axis is -z)");
-  require(std::abs(intr_.c - intr_.d * intr_.e) > 1e-6, "affine matrix [[c, d], [e, 1]] is singular");
+  require(std::abs(intr_.c - intr_.d * intr_.e) > 1e-6,
+          "affine matrix [[c, d], [e, 1]] is singular");
 
   // The valid radius: just beyond the farthest corner, cut where the angle stops growing
   // (past that the polynomial no longer describes a lens).
@@ -81,7 +83,8 @@ double TaylorCamera::pol_at(double rho) const { return horner(intr_.pol, rho); }
 
 double TaylorCamera::dpol_at(double rho) const {
   double value = 0.0;
-  for (size_t i = intr_.pol.size() - 1; i >= 1; --i) value = value * rho + static_cast<double>(i) * intr_.pol[i];
+  for (size_t i = intr_.pol.size() - 1; i >= 1; --i)
+    value = value * rho + static_cast<double>(i) * intr_.pol[i];
   return value;
 }
 

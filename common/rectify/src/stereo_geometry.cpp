@@ -16,7 +16,8 @@ StereoGeometry make_stereo_geometry(const camera::Rig& rig, const camera::Stereo
   const Eigen::Vector3d c_right = right.T_ref_cam.translation();
   const Eigen::Vector3d baseline = c_right - c_left;
   if (baseline.norm() < 1e-6) {
-    throw std::invalid_argument("stereo pair " + pair.left + "/" + pair.right + ": camera centres coincide");
+    throw std::invalid_argument("stereo pair " + pair.left + "/" + pair.right +
+                                ": camera centres coincide");
   }
   const Eigen::Vector3d x = baseline.normalized();
   Eigen::Vector3d z = left.T_ref_cam.linear().col(2) + right.T_ref_cam.linear().col(2);
@@ -25,8 +26,12 @@ StereoGeometry make_stereo_geometry(const camera::Rig& rig, const camera::Stereo
   Eigen::Matrix3d r;
   r << x, y, z;
 
-  StereoGeometry g{pair.left, pair.right, Eigen::Isometry3d::Identity(), Eigen::Isometry3d::Identity(),
-                   baseline.norm(), camera::RectifiedCamera(grid)};
+  StereoGeometry g{pair.left,
+                   pair.right,
+                   Eigen::Isometry3d::Identity(),
+                   Eigen::Isometry3d::Identity(),
+                   baseline.norm(),
+                   camera::RectifiedCamera(grid)};
   g.T_ref_left_rect.linear() = r;
   g.T_ref_left_rect.translation() = c_left;
   g.T_ref_right_rect.linear() = r;
@@ -63,7 +68,8 @@ camera::RectifiedIntrinsics grid_matching_camera(const camera::RigCamera& raw, i
 }
 
 cv::Mat build_map(const camera::RigCamera& cam, const Eigen::Isometry3d& T_ref_rect,
-                  const camera::RectifiedCamera& grid, double registration_distance_m, cv::Rect roi) {
+                  const camera::RectifiedCamera& grid, double registration_distance_m,
+                  cv::Rect roi) {
   const cv::Size size = grid.image_size();
   if (roi.area() == 0) roi = cv::Rect(0, 0, size.width, size.height);
   roi &= cv::Rect(0, 0, size.width, size.height);
@@ -75,8 +81,9 @@ cv::Mat build_map(const camera::RigCamera& cam, const Eigen::Isometry3d& T_ref_r
     for (int u = 0; u < roi.width; ++u) {
       Eigen::Vector3d ray;
       if (!grid.unproject({u + roi.x, v + roi.y}, ray)) continue;
-      const Eigen::Vector3d in_cam = at_infinity ? Eigen::Vector3d(T_cam_rect.linear() * ray)
-                                                 : Eigen::Vector3d(T_cam_rect * (ray * registration_distance_m));
+      const Eigen::Vector3d in_cam =
+          at_infinity ? Eigen::Vector3d(T_cam_rect.linear() * ray)
+                      : Eigen::Vector3d(T_cam_rect * (ray * registration_distance_m));
       Eigen::Vector2d px;
       if (!cam.model->project(in_cam, px)) continue;
       out[u] = cv::Vec2f(static_cast<float>(px.x()), static_cast<float>(px.y()));

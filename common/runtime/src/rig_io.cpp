@@ -7,8 +7,8 @@
 #include <fstream>
 #include <map>
 #include <queue>
-#include <sstream>
 #include <set>
+#include <sstream>
 
 #include "thermovis/camera/rectified.hpp"
 #include "thermovis/runtime/yaml_util.hpp"
@@ -22,7 +22,8 @@ using camera::TaylorIntrinsics;
 
 TaylorIntrinsics taylor_from_node(const std::string& src, const YAML::Node& model,
                                   const std::string& ctx) {
-  check_keys(src, model, ctx, {"type", "image_size", "centre_row_col", "affine_cde", "pol", "invpol"});
+  check_keys(src, model, ctx,
+             {"type", "image_size", "centre_row_col", "affine_cde", "pol", "invpol"});
   const std::string type = as_string(src, require(src, model, ctx, "type"), ctx + ".type");
   if (type != "taylor") {
     throw ConfigError(where(src, model["type"]) + ": " + ctx + ".type: unknown model '" + type +
@@ -36,7 +37,8 @@ TaylorIntrinsics taylor_from_node(const std::string& src, const YAML::Node& mode
     throw ConfigError(where(src, model["image_size"]) + ": " + ctx +
                       ".image_size: expected two positive integers [width, height]");
   }
-  const auto centre = as_doubles(src, require(src, model, ctx, "centre_row_col"), ctx + ".centre_row_col", 2);
+  const auto centre =
+      as_doubles(src, require(src, model, ctx, "centre_row_col"), ctx + ".centre_row_col", 2);
   in.xc = centre[0];
   in.yc = centre[1];
   const auto cde = as_doubles(src, require(src, model, ctx, "affine_cde"), ctx + ".affine_cde", 3);
@@ -73,7 +75,8 @@ Eigen::Matrix3d nearest_rotation(const Eigen::Matrix3d& m, const std::string& at
   Eigen::Matrix3d r = svd.matrixU() * svd.matrixV().transpose();
   if (r.determinant() < 0) throw ConfigError(at + ": R is a reflection, not a rotation");
   if ((r - m).cwiseAbs().maxCoeff() > 0.01) {
-    throw ConfigError(at + ": R is not a rotation (differs from the nearest one by more than 0.01)");
+    throw ConfigError(at +
+                      ": R is not a rotation (differs from the nearest one by more than 0.01)");
   }
   return r;
 }
@@ -96,7 +99,8 @@ Rig parse_rig(const std::string& yaml_text, const std::string& src) {
     for (const auto& note : root["notes"]) rig.notes.push_back(as_string(src, note, "notes"));
   }
   const YAML::Node cams = require(src, root, "rig", "cameras");
-  if (!cams.IsMap() || cams.size() == 0) throw ConfigError(where(src, cams) + ": cameras: expected a map of cameras");
+  if (!cams.IsMap() || cams.size() == 0)
+    throw ConfigError(where(src, cams) + ": cameras: expected a map of cameras");
   for (const auto& item : cams) {
     const std::string name = item.first.as<std::string>();
     const std::string ctx = "cameras." + name;
@@ -106,18 +110,24 @@ Rig parse_rig(const std::string& yaml_text, const std::string& src) {
     cam.name = name;
     cam.band = as_string(src, require(src, node, ctx, "band"), ctx + ".band");
     if (cam.band != "visible" && cam.band != "infrared") {
-      throw ConfigError(where(src, node["band"]) + ": " + ctx + ".band: expected visible or infrared");
+      throw ConfigError(where(src, node["band"]) + ": " + ctx +
+                        ".band: expected visible or infrared");
     }
-    cam.pixel_pitch_um = as_double(src, require(src, node, ctx, "pixel_pitch_um"), ctx + ".pixel_pitch_um");
-    if (cam.pixel_pitch_um <= 0) throw ConfigError(where(src, node["pixel_pitch_um"]) + ": " + ctx + ".pixel_pitch_um: must be positive");
+    cam.pixel_pitch_um =
+        as_double(src, require(src, node, ctx, "pixel_pitch_um"), ctx + ".pixel_pitch_um");
+    if (cam.pixel_pitch_um <= 0)
+      throw ConfigError(where(src, node["pixel_pitch_um"]) + ": " + ctx +
+                        ".pixel_pitch_um: must be positive");
     cam.bit_depth = node["bit_depth"] ? as_int(src, node["bit_depth"], ctx + ".bit_depth") : 8;
-    if (cam.bit_depth < 1 || cam.bit_depth > 16) throw ConfigError(where(src, node["bit_depth"]) + ": " + ctx + ".bit_depth: must be 1..16");
+    if (cam.bit_depth < 1 || cam.bit_depth > 16)
+      throw ConfigError(where(src, node["bit_depth"]) + ": " + ctx + ".bit_depth: must be 1..16");
     cam.model = std::make_shared<camera::TaylorCamera>(
         taylor_from_node(src, require(src, node, ctx, "model"), ctx + ".model"));
     rig.cameras.push_back(std::move(cam));
   }
   if (!rig.has_camera(rig.reference)) {
-    throw ConfigError(where(src, root["reference"]) + ": reference: no camera named '" + rig.reference + "'");
+    throw ConfigError(where(src, root["reference"]) + ": reference: no camera named '" +
+                      rig.reference + "'");
   }
 
   std::vector<Edge> edges;
@@ -130,10 +140,12 @@ Rig parse_rig(const std::string& yaml_text, const std::string& src) {
       edge.from = as_string(src, require(src, e, "extrinsics", "from"), "extrinsics.from");
       edge.to = as_string(src, require(src, e, "extrinsics", "to"), "extrinsics.to");
       for (const auto& n : {edge.from, edge.to}) {
-        if (!rig.has_camera(n)) throw ConfigError(where(src, e) + ": extrinsics: no camera named '" + n + "'");
+        if (!rig.has_camera(n))
+          throw ConfigError(where(src, e) + ": extrinsics: no camera named '" + n + "'");
       }
       const YAML::Node rn = require(src, e, "extrinsics", "R");
-      if (!rn.IsSequence() || rn.size() != 3) throw ConfigError(where(src, rn) + ": extrinsics.R: expected 3 rows");
+      if (!rn.IsSequence() || rn.size() != 3)
+        throw ConfigError(where(src, rn) + ": extrinsics.R: expected 3 rows");
       Eigen::Matrix3d r;
       for (int i = 0; i < 3; ++i) {
         const auto row = as_doubles(src, rn[i], "extrinsics.R row", 3);
@@ -165,22 +177,25 @@ Rig parse_rig(const std::string& yaml_text, const std::string& src) {
   }
   for (auto& cam : rig.cameras) {
     if (!pose.count(cam.name)) {
-      throw ConfigError(src + ": extrinsics: camera '" + cam.name + "' is not connected to the reference '" +
-                        rig.reference + "'");
+      throw ConfigError(src + ": extrinsics: camera '" + cam.name +
+                        "' is not connected to the reference '" + rig.reference + "'");
     }
     cam.T_ref_cam = pose[cam.name];
   }
   if (root["stereo"]) {
     const YAML::Node st = root["stereo"];
     check_keys(src, st, "stereo", {"visible", "infrared"});
-    for (const auto& [key, target] : {std::pair{"visible", &rig.visible}, std::pair{"infrared", &rig.infrared}}) {
+    for (const auto& [key, target] :
+         {std::pair{"visible", &rig.visible}, std::pair{"infrared", &rig.infrared}}) {
       if (!st[key]) continue;
       const YAML::Node pair = st[key];
-      if (!pair.IsSequence() || pair.size() != 2) throw ConfigError(where(src, pair) + ": stereo." + key + ": expected [left, right]");
+      if (!pair.IsSequence() || pair.size() != 2)
+        throw ConfigError(where(src, pair) + ": stereo." + key + ": expected [left, right]");
       target->left = as_string(src, pair[0], std::string("stereo.") + key);
       target->right = as_string(src, pair[1], std::string("stereo.") + key);
       for (const auto& n : {target->left, target->right}) {
-        if (!rig.has_camera(n)) throw ConfigError(where(src, pair) + ": stereo." + key + ": no camera named '" + n + "'");
+        if (!rig.has_camera(n))
+          throw ConfigError(where(src, pair) + ": stereo." + key + ": no camera named '" + n + "'");
       }
     }
   }
@@ -205,7 +220,8 @@ std::string rig_to_yaml(const Rig& rig) {
   out << YAML::Key << "cameras" << YAML::Value << YAML::BeginMap;
   for (const auto& cam : rig.cameras) {
     const auto* taylor = dynamic_cast<const camera::TaylorCamera*>(cam.model.get());
-    if (taylor == nullptr) throw std::runtime_error("rig_to_yaml: camera '" + cam.name + "' is not a Taylor model");
+    if (taylor == nullptr)
+      throw std::runtime_error("rig_to_yaml: camera '" + cam.name + "' is not a Taylor model");
     out << YAML::Key << cam.name << YAML::Value << YAML::BeginMap;
     out << YAML::Key << "band" << YAML::Value << cam.band;
     out << YAML::Key << "pixel_pitch_um" << YAML::Value << cam.pixel_pitch_um;
@@ -224,7 +240,8 @@ std::string rig_to_yaml(const Rig& rig) {
     out << YAML::BeginMap << YAML::Key << "from" << YAML::Value << ref.name << YAML::Key << "to"
         << YAML::Value << cam.name << YAML::Key << "R" << YAML::Value << YAML::BeginSeq;
     for (int i = 0; i < 3; ++i) {
-      out << YAML::Flow << YAML::BeginSeq << T.linear()(i, 0) << T.linear()(i, 1) << T.linear()(i, 2) << YAML::EndSeq;
+      out << YAML::Flow << YAML::BeginSeq << T.linear()(i, 0) << T.linear()(i, 1)
+          << T.linear()(i, 2) << YAML::EndSeq;
     }
     const Eigen::Vector3d t = T.translation() * 1000.0;
     out << YAML::EndSeq << YAML::Key << "t_mm" << YAML::Value << YAML::Flow << YAML::BeginSeq
@@ -232,8 +249,10 @@ std::string rig_to_yaml(const Rig& rig) {
   }
   out << YAML::EndSeq;
   out << YAML::Key << "stereo" << YAML::Value << YAML::BeginMap;
-  out << YAML::Key << "visible" << YAML::Value << YAML::Flow << YAML::BeginSeq << rig.visible.left << rig.visible.right << YAML::EndSeq;
-  out << YAML::Key << "infrared" << YAML::Value << YAML::Flow << YAML::BeginSeq << rig.infrared.left << rig.infrared.right << YAML::EndSeq;
+  out << YAML::Key << "visible" << YAML::Value << YAML::Flow << YAML::BeginSeq << rig.visible.left
+      << rig.visible.right << YAML::EndSeq;
+  out << YAML::Key << "infrared" << YAML::Value << YAML::Flow << YAML::BeginSeq << rig.infrared.left
+      << rig.infrared.right << YAML::EndSeq;
   out << YAML::EndMap;
   out << YAML::EndMap;
   return std::string(out.c_str()) + "\n";

@@ -32,7 +32,8 @@ YAML::Node require(const std::string& source, const YAML::Node& node, const std:
                    const std::string& key) {
   if (!node.IsMap()) throw ConfigError(where(source, node) + ": " + context + ": expected a map");
   YAML::Node child = node[key];
-  if (!child) throw ConfigError(where(source, node) + ": " + context + ": missing key '" + key + "'");
+  if (!child)
+    throw ConfigError(where(source, node) + ": " + context + ": missing key '" + key + "'");
   return child;
 }
 
@@ -52,8 +53,10 @@ int as_int(const std::string& source, const YAML::Node& node, const std::string&
   return value;
 }
 
-std::string as_string(const std::string& source, const YAML::Node& node, const std::string& context) {
-  if (!node.IsScalar()) throw ConfigError(where(source, node) + ": " + context + ": expected a string");
+std::string as_string(const std::string& source, const YAML::Node& node,
+                      const std::string& context) {
+  if (!node.IsScalar())
+    throw ConfigError(where(source, node) + ": " + context + ": expected a string");
   return node.Scalar();
 }
 
@@ -67,7 +70,8 @@ bool as_bool(const std::string& source, const YAML::Node& node, const std::strin
 
 std::vector<double> as_doubles(const std::string& source, const YAML::Node& node,
                                const std::string& context, int size) {
-  if (!node.IsSequence()) throw ConfigError(where(source, node) + ": " + context + ": expected a list");
+  if (!node.IsSequence())
+    throw ConfigError(where(source, node) + ": " + context + ": expected a list");
   if (size >= 0 && static_cast<int>(node.size()) != size) {
     throw ConfigError(where(source, node) + ": " + context + ": expected " + std::to_string(size) +
                       " numbers, found " + std::to_string(node.size()));

@@ -16,7 +16,8 @@ namespace tr = thermovis::runtime;
 namespace {
 
 const tc::TaylorCamera& paper_camera(const std::string& name) {
-  static const tc::Rig rig = tr::load_rig(thermovis::test::source_root() / "deploy/rigs/paper.yaml");
+  static const tc::Rig rig =
+      tr::load_rig(thermovis::test::source_root() / "deploy/rigs/paper.yaml");
   return dynamic_cast<const tc::TaylorCamera&>(*rig.camera(name).model);
 }
 
@@ -33,7 +34,7 @@ TEST(Taylor, PaperInfraredHasTable2FocalLengthAndWideField) {
   for (const char* name : {"infrared.left", "infrared.right"}) {
     const auto f = tc::field_figures(paper_camera(name));
     EXPECT_NEAR(f.paraxial_focal_px * 14e-3, 6.0, 0.25) << name;  // Table 2: f = 6 mm
-    EXPECT_NEAR(f.horizontal_deg, 121.6, 1.5) << name;             // Table 2: HFOV 121.6 deg
+    EXPECT_NEAR(f.horizontal_deg, 121.6, 1.5) << name;            // Table 2: HFOV 121.6 deg
   }
 }
 
@@ -132,7 +133,8 @@ TEST(OcamIo, WriteThenReadGivesTheSameModel) {
   EXPECT_DOUBLE_EQ(back.xc, original.xc);
   EXPECT_DOUBLE_EQ(back.e, original.e);
   ASSERT_EQ(back.pol.size(), original.pol.size());
-  for (size_t i = 0; i < back.pol.size(); ++i) EXPECT_NEAR(back.pol[i], original.pol[i], 1e-9 * std::abs(original.pol[i]) + 1e-20);
+  for (size_t i = 0; i < back.pol.size(); ++i)
+    EXPECT_NEAR(back.pol[i], original.pol[i], 1e-9 * std::abs(original.pol[i]) + 1e-20);
   ASSERT_EQ(back.invpol.size(), original.invpol.size());
 }
 
@@ -147,8 +149,10 @@ TEST(OcamIo, BadFilesNameTheProblem) {
     return std::string("accepted");
   };
   EXPECT_NE(message("5 -551 0 1e-3\n").find("bad.txt"), std::string::npos);
-  EXPECT_NE(message("3 -551 0 1e-3\n2 1 2\n1 2\n1 0 0\nabc 1024\n").find("image size"), std::string::npos);
-  EXPECT_NE(message("4 -551 0 1e-3\n2 1 2\n1 2\n1 0 0\n768 1024\n").find("count"), std::string::npos);
+  EXPECT_NE(message("3 -551 0 1e-3\n2 1 2\n1 2\n1 0 0\nabc 1024\n").find("image size"),
+            std::string::npos);
+  EXPECT_NE(message("4 -551 0 1e-3\n2 1 2\n1 2\n1 0 0\n768 1024\n").find("count"),
+            std::string::npos);
   EXPECT_THROW(tc::read_ocam_calib_results("/nonexistent/calib_results.txt"), std::runtime_error);
 }
 

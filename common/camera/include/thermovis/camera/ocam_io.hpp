@@ -17,7 +17,8 @@ namespace thermovis::camera {
 TaylorIntrinsics read_ocam_calib_results(const std::filesystem::path& path);
 TaylorIntrinsics parse_ocam_calib_results(std::istream& in, const std::string& source_name);
 
-void write_ocam_calib_results(const TaylorIntrinsics& intrinsics, const std::filesystem::path& path);
+void write_ocam_calib_results(const TaylorIntrinsics& intrinsics,
+                              const std::filesystem::path& path);
 void write_ocam_calib_results(const TaylorIntrinsics& intrinsics, std::ostream& out);
 
 }  // namespace thermovis::camera

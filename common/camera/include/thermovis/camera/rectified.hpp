@@ -20,8 +20,8 @@ enum class RectifiedProjection { equirectangular, cylindrical };
 
 struct RectifiedIntrinsics {
   int width = 0, height = 0;
-  double f = 0.0;              // px per rad (rows, and columns of equirectangular)
-  double cx = 0.0, cy = 0.0;   // px, the ray (0, 0, 1)
+  double f = 0.0;             // px per rad (rows, and columns of equirectangular)
+  double cx = 0.0, cy = 0.0;  // px, the ray (0, 0, 1)
   RectifiedProjection projection = RectifiedProjection::equirectangular;
 };
 

@@ -12,11 +12,11 @@
 namespace thermovis::camera {
 
 struct RigCamera {
-  std::string name;                          // e.g. "visible.left"
-  std::string band;                          // "visible" or "infrared"
+  std::string name;  // e.g. "visible.left"
+  std::string band;  // "visible" or "infrared"
   std::shared_ptr<const CameraModel> model;
-  double pixel_pitch_um = 0.0;               // sensor pixel pitch, um
-  int bit_depth = 8;                         // significant bits per sample of the raw image
+  double pixel_pitch_um = 0.0;  // sensor pixel pitch, um
+  int bit_depth = 8;            // significant bits per sample of the raw image
   Eigen::Isometry3d T_ref_cam = Eigen::Isometry3d::Identity();
 };
 
@@ -28,11 +28,11 @@ struct StereoPair {
 
 struct Rig {
   std::string name;
-  std::string reference;                     // camera whose frame is the rig frame
+  std::string reference;  // camera whose frame is the rig frame
   std::vector<RigCamera> cameras;
   StereoPair visible{"visible.left", "visible.right"};
   StereoPair infrared{"infrared.left", "infrared.right"};
-  std::vector<std::string> notes;            // assumptions the rig file states (where values came from)
+  std::vector<std::string> notes;  // assumptions the rig file states (where values came from)
 
   // Throws std::out_of_range naming the missing camera.
   const RigCamera& camera(const std::string& camera_name) const;

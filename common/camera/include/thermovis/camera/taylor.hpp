@@ -19,13 +19,13 @@
 namespace thermovis::camera {
 
 struct TaylorIntrinsics {
-  int width = 0;               // image width, px
-  int height = 0;              // image height, px
-  double xc = 0.0;             // centre ROW, px, 0-based (OCamCalib's xc)
-  double yc = 0.0;             // centre COLUMN, px, 0-based (OCamCalib's yc)
+  int width = 0;                     // image width, px
+  int height = 0;                    // image height, px
+  double xc = 0.0;                   // centre ROW, px, 0-based (OCamCalib's xc)
+  double yc = 0.0;                   // centre COLUMN, px, 0-based (OCamCalib's yc)
   double c = 1.0, d = 0.0, e = 0.0;  // affine (stretch) of OCamCalib
-  std::vector<double> pol;     // a0, a1, a2, ... (a1 = 0 in OCamCalib), rho in px
-  std::vector<double> invpol;  // inverse polynomial, lowest order first; empty = fit it
+  std::vector<double> pol;           // a0, a1, a2, ... (a1 = 0 in OCamCalib), rho in px
+  std::vector<double> invpol;        // inverse polynomial, lowest order first; empty = fit it
 };
 
 // How well the inverse polynomial reproduces the forward model over the image.

@@ -2,10 +2,11 @@
 // Epipolar rectification ("limit correction") of a wide-angle stereo pair onto the rectified grid
 // of camera/rectified.hpp, and the per-camera maps from rectified pixels to raw pixels.
 //
-// Frames: the rig frame is the reference camera's (camera/rig.hpp). A rectified frame has its x axis
-// along the baseline (left camera centre -> right camera centre), z the mean of the two optical axes
-// made orthogonal to x, y = z cross x (down). The left and right rectified frames share this
-// rotation; their origins are the two camera centres. In them, an epipolar plane is one row.
+// Frames: the rig frame is the reference camera's (camera/rig.hpp). A rectified frame has its x
+// axis along the baseline (left camera centre -> right camera centre), z the mean of the two
+// optical axes made orthogonal to x, y = z cross x (down). The left and right rectified frames
+// share this rotation; their origins are the two camera centres. In them, an epipolar plane is one
+// row.
 #include <Eigen/Geometry>
 #include <opencv2/core/mat.hpp>
 
@@ -15,11 +16,11 @@
 namespace thermovis::rectify {
 
 struct StereoGeometry {
-  std::string left, right;               // camera names in the rig
-  Eigen::Isometry3d T_ref_left_rect;     // left rectified frame in the rig frame
-  Eigen::Isometry3d T_ref_right_rect;    // right rectified frame: same rotation, right centre
+  std::string left, right;             // camera names in the rig
+  Eigen::Isometry3d T_ref_left_rect;   // left rectified frame in the rig frame
+  Eigen::Isometry3d T_ref_right_rect;  // right rectified frame: same rotation, right centre
   double baseline_m = 0.0;
-  camera::RectifiedCamera grid;          // the rectified image both eyes share
+  camera::RectifiedCamera grid;  // the rectified image both eyes share
 };
 
 // Throws std::invalid_argument when the two cameras coincide.

@@ -28,7 +28,8 @@ std::string rig_to_yaml(const camera::Rig& rig);
 void save_rig(const camera::Rig& rig, const std::filesystem::path& path);
 
 // One camera's intrinsics (the `model:` block alone, as `thermovis calibrate` writes it).
-camera::TaylorIntrinsics parse_taylor_yaml(const std::string& yaml_text, const std::string& source_name);
+camera::TaylorIntrinsics parse_taylor_yaml(const std::string& yaml_text,
+                                           const std::string& source_name);
 camera::TaylorIntrinsics load_taylor_yaml(const std::filesystem::path& path);
 std::string taylor_to_yaml(const camera::TaylorIntrinsics& intrinsics);
 

@@ -29,7 +29,8 @@ YAML::Node require(const std::string& source, const YAML::Node& node, const std:
 // Converts with a clear message on failure ("expected a number", ...).
 double as_double(const std::string& source, const YAML::Node& node, const std::string& context);
 int as_int(const std::string& source, const YAML::Node& node, const std::string& context);
-std::string as_string(const std::string& source, const YAML::Node& node, const std::string& context);
+std::string as_string(const std::string& source, const YAML::Node& node,
+                      const std::string& context);
 bool as_bool(const std::string& source, const YAML::Node& node, const std::string& context);
 // A sequence of numbers, of exactly `size` elements when size >= 0.
 std::vector<double> as_doubles(const std::string& source, const YAML::Node& node,

@@ -1,7 +1,7 @@
 #pragma once
 // Where tests find the shared test data, the source tree and the built executables.
-#include <filesystem>
 #include <gtest/gtest.h>
+#include <filesystem>
 #include <string>
 
 namespace thermovis::test {
@@ -25,9 +25,9 @@ std::filesystem::path temp_dir(const std::string& name);
 
 // Skips the current test with a message when a data folder is missing, so the project still
 // builds and tests where the shared data is not present.
-#define THERMOVIS_REQUIRE_DATA(var, relative)                                   \
-  const std::filesystem::path var = ::thermovis::test::data_path(relative);     \
-  if (var.empty()) {                                                             \
-    GTEST_SKIP() << "test data missing: " << (relative) << " under "             \
+#define THERMOVIS_REQUIRE_DATA(var, relative)                                       \
+  const std::filesystem::path var = ::thermovis::test::data_path(relative);         \
+  if (var.empty()) {                                                                \
+    GTEST_SKIP() << "test data missing: " << (relative) << " under "                \
                  << ::thermovis::test::data_root() << " (set THERMOVIS_TEST_DATA)"; \
   }
