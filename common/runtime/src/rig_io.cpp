@@ -203,11 +203,7 @@ Rig parse_rig(const std::string& yaml_text, const std::string& src) {
 }
 
 Rig load_rig(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  if (!in) throw ConfigError(path.string() + ": cannot open rig file (missing or unreadable)");
-  std::stringstream text;
-  text << in.rdbuf();
-  return parse_rig(text.str(), path.string());
+  return parse_rig(read_text_file(path.string(), "rig file"), path.string());
 }
 
 std::string rig_to_yaml(const Rig& rig) {
@@ -273,11 +269,7 @@ camera::TaylorIntrinsics parse_taylor_yaml(const std::string& yaml_text, const s
 }
 
 camera::TaylorIntrinsics load_taylor_yaml(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  if (!in) throw ConfigError(path.string() + ": cannot open camera file (missing or unreadable)");
-  std::stringstream text;
-  text << in.rdbuf();
-  return parse_taylor_yaml(text.str(), path.string());
+  return parse_taylor_yaml(read_text_file(path.string(), "camera file"), path.string());
 }
 
 std::string taylor_to_yaml(const camera::TaylorIntrinsics& intrinsics) {

@@ -89,12 +89,16 @@ YAML::Node parse_yaml(const std::string& text, const std::string& source) {
   }
 }
 
-YAML::Node load_yaml_file(const std::string& path) {
+std::string read_text_file(const std::string& path, const std::string& what) {
   std::ifstream in(path);
-  if (!in) throw ConfigError(path + ": cannot open (missing or unreadable)");
+  if (!in) throw ConfigError(path + ": cannot open " + what + " (missing or unreadable)");
   std::stringstream text;
   text << in.rdbuf();
-  return parse_yaml(text.str(), path);
+  return text.str();
+}
+
+YAML::Node load_yaml_file(const std::string& path) {
+  return parse_yaml(read_text_file(path, "file"), path);
 }
 
 }  // namespace thermovis::runtime

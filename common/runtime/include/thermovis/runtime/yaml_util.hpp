@@ -38,6 +38,10 @@ std::vector<double> as_doubles(const std::string& source, const YAML::Node& node
 
 // Parses text, turning yaml-cpp's syntax errors into ConfigError naming the source and line.
 YAML::Node parse_yaml(const std::string& text, const std::string& source);
+// The whole text of a file; ConfigError naming the file and `what` it is when missing or
+// unreadable.
+std::string read_text_file(const std::string& path, const std::string& what);
+
 // Reads a file (ConfigError if missing or unreadable) and parses it.
 YAML::Node load_yaml_file(const std::string& path);
 

@@ -1,0 +1,38 @@
+#pragma once
+// The pipeline manifest (deploy/pipeline.yaml): which service processes to run, how to start them,
+// in which order and what to do when one exits. Plain data; parsing is in manifest_io.hpp.
+#include <map>
+#include <string>
+#include <vector>
+
+namespace thermovis::process {
+
+enum class RestartPolicy { always, on_failure, never };
+
+struct ServiceSpec {
+  std::string name;                        // unique, e.g. "bridge"
+  std::vector<std::string> command;        // argv; ${bin}, ${config}, ${domain} are substituted
+  std::map<std::string, std::string> env;  // extra environment (same substitutions)
+  RestartPolicy restart = RestartPolicy::on_failure;
+  std::vector<std::string> depends_on;  // started after these
+  double backoff_initial_s = 0.1;       // first restart delay; doubles per consecutive failure
+  double backoff_max_s = 5.0;           // restart delay ceiling
+  double stable_after_s = 10.0;         // running this long resets the backoff
+  double stop_timeout_s = 3.0;          // SIGTERM -> SIGKILL grace
+};
+
+struct Manifest {
+  std::string name;
+  std::vector<ServiceSpec> services;  // in start order (dependencies first), see start_order()
+};
+
+// Service names in an order where every service follows its dependencies. Throws
+// std::invalid_argument on an unknown dependency or a cycle, naming it.
+std::vector<std::string> start_order(const Manifest& manifest);
+
+// Replaces ${key} in text by vars[key]; unknown keys are left as they are.
+std::string substitute(const std::string& text, const std::map<std::string, std::string>& vars);
+
+const char* to_string(RestartPolicy policy);
+
+}  // namespace thermovis::process

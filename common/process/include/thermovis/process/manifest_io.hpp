@@ -1,0 +1,23 @@
+#pragma once
+// Manifest YAML (deploy/pipeline.yaml documents the format):
+//   name: default
+//   services:
+//     - name: bridge
+//       command: ["${bin}/thermovis-bridge", "--config", "${config}/bridge.yaml"]
+//       env: {FASTRTPS_DEFAULT_PROFILES_FILE: "${config}/dds/shm.xml"}
+//       restart: on-failure        # always | on-failure | never
+//       depends_on: []
+//       backoff: {initial_s: 0.1, max_s: 5.0, stable_after_s: 10}
+//       stop_timeout_s: 3
+#include <filesystem>
+#include <string>
+
+#include "thermovis/process/manifest.hpp"
+
+namespace thermovis::process {
+
+// Throws runtime::ConfigError naming the file, line and key.
+Manifest parse_manifest(const std::string& yaml_text, const std::string& source_name);
+Manifest load_manifest(const std::filesystem::path& path);
+
+}  // namespace thermovis::process

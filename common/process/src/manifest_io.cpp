@@ -1,0 +1,97 @@
+#include "thermovis/process/manifest_io.hpp"
+
+#include <set>
+
+#include "thermovis/runtime/yaml_util.hpp"
+
+namespace thermovis::process {
+
+using runtime::as_double;
+using runtime::as_string;
+using runtime::check_keys;
+using runtime::ConfigError;
+using runtime::require;
+using runtime::where;
+
+Manifest parse_manifest(const std::string& yaml_text, const std::string& src) {
+  const YAML::Node root = runtime::parse_yaml(yaml_text, src);
+  if (!root || !root.IsMap()) throw ConfigError(src + ": expected a manifest map");
+  check_keys(src, root, "manifest", {"name", "services"});
+  Manifest manifest;
+  manifest.name = root["name"] ? as_string(src, root["name"], "name") : "pipeline";
+  const YAML::Node services = require(src, root, "manifest", "services");
+  if (!services.IsSequence() || services.size() == 0) {
+    throw ConfigError(where(src, services) + ": services: expected a non-empty list");
+  }
+  std::set<std::string> names;
+  for (const auto& node : services) {
+    check_keys(src, node, "service",
+               {"name", "command", "env", "restart", "depends_on", "backoff", "stop_timeout_s"});
+    ServiceSpec spec;
+    spec.name = as_string(src, require(src, node, "service", "name"), "service.name");
+    const std::string ctx = "services." + spec.name;
+    if (!names.insert(spec.name).second) {
+      throw ConfigError(where(src, node) + ": " + ctx + ": defined twice");
+    }
+    const YAML::Node command = require(src, node, ctx, "command");
+    if (!command.IsSequence() || command.size() == 0) {
+      throw ConfigError(where(src, command) + ": " + ctx + ".command: expected a non-empty list");
+    }
+    for (const auto& arg : command) spec.command.push_back(as_string(src, arg, ctx + ".command"));
+    if (node["env"]) {
+      if (!node["env"].IsMap())
+        throw ConfigError(where(src, node["env"]) + ": " + ctx + ".env: expected a map");
+      for (const auto& kv : node["env"]) {
+        spec.env[kv.first.as<std::string>()] = as_string(src, kv.second, ctx + ".env");
+      }
+    }
+    if (node["restart"]) {
+      const std::string policy = as_string(src, node["restart"], ctx + ".restart");
+      if (policy == "always") {
+        spec.restart = RestartPolicy::always;
+      } else if (policy == "on-failure") {
+        spec.restart = RestartPolicy::on_failure;
+      } else if (policy == "never") {
+        spec.restart = RestartPolicy::never;
+      } else {
+        throw ConfigError(where(src, node["restart"]) + ": " + ctx + ".restart: '" + policy +
+                          "' is not one of always, on-failure, never");
+      }
+    }
+    if (node["depends_on"]) {
+      for (const auto& dep : node["depends_on"])
+        spec.depends_on.push_back(as_string(src, dep, ctx + ".depends_on"));
+    }
+    if (node["backoff"]) {
+      const YAML::Node b = node["backoff"];
+      check_keys(src, b, ctx + ".backoff", {"initial_s", "max_s", "stable_after_s"});
+      if (b["initial_s"])
+        spec.backoff_initial_s = as_double(src, b["initial_s"], ctx + ".backoff.initial_s");
+      if (b["max_s"]) spec.backoff_max_s = as_double(src, b["max_s"], ctx + ".backoff.max_s");
+      if (b["stable_after_s"])
+        spec.stable_after_s = as_double(src, b["stable_after_s"], ctx + ".backoff.stable_after_s");
+      if (spec.backoff_initial_s <= 0 || spec.backoff_max_s < spec.backoff_initial_s) {
+        throw ConfigError(where(src, b) + ": " + ctx + ".backoff: need 0 < initial_s <= max_s");
+      }
+    }
+    if (node["stop_timeout_s"]) {
+      spec.stop_timeout_s = as_double(src, node["stop_timeout_s"], ctx + ".stop_timeout_s");
+      if (spec.stop_timeout_s <= 0)
+        throw ConfigError(where(src, node["stop_timeout_s"]) + ": " + ctx +
+                          ".stop_timeout_s: must be positive");
+    }
+    manifest.services.push_back(std::move(spec));
+  }
+  try {
+    start_order(manifest);
+  } catch (const std::invalid_argument& e) {
+    throw ConfigError(src + ": " + e.what());
+  }
+  return manifest;
+}
+
+Manifest load_manifest(const std::filesystem::path& path) {
+  return parse_manifest(runtime::read_text_file(path.string(), "manifest"), path.string());
+}
+
+}  // namespace thermovis::process

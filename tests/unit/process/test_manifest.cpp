@@ -1,0 +1,59 @@
+// The pipeline manifest: start order, substitution and clear errors for broken files.
+#include <gtest/gtest.h>
+
+#include "thermovis/process/manifest_io.hpp"
+#include "thermovis/runtime/yaml_util.hpp"
+#include "thermovis/test/data.hpp"
+
+namespace tp = thermovis::process;
+
+namespace {
+
+std::string error_of(const std::string& text) {
+  try {
+    tp::parse_manifest(text, "m.yaml");
+  } catch (const thermovis::runtime::ConfigError& e) {
+    return e.what();
+  }
+  return "accepted";
+}
+
+TEST(Manifest, StartOrderPutsDependenciesFirst) {
+  const auto m = tp::parse_manifest(R"(
+name: test
+services:
+  - {name: range, command: [a], depends_on: [match]}
+  - {name: match, command: [b], depends_on: [bridge]}
+  - {name: bridge, command: [c], restart: always}
+)",
+                                    "m.yaml");
+  EXPECT_EQ(tp::start_order(m), (std::vector<std::string>{"bridge", "match", "range"}));
+  EXPECT_EQ(m.services[2].restart, tp::RestartPolicy::always);
+  EXPECT_EQ(m.services[0].restart, tp::RestartPolicy::on_failure);
+}
+
+TEST(Manifest, SubstitutesKnownVariablesOnly) {
+  EXPECT_EQ(tp::substitute("${bin}/x --d ${domain} ${other}", {{"bin", "/b"}, {"domain", "7"}}),
+            "/b/x --d 7 ${other}");
+}
+
+TEST(Manifest, BrokenFilesNameTheProblem) {
+  EXPECT_NE(error_of("services:\n  - {name: a, comand: [x]}\n").find("unknown key 'comand'"),
+            std::string::npos);
+  EXPECT_NE(
+      error_of("services:\n  - {name: a, command: [x], restart: sometimes}\n").find("sometimes"),
+      std::string::npos);
+  EXPECT_NE(error_of("services:\n  - {name: a, command: [x], depends_on: [b]}\n")
+                .find("unknown service 'b'"),
+            std::string::npos);
+  EXPECT_NE(error_of("services:\n  - {name: a, command: [x], depends_on: [b]}\n  - {name: b, "
+                     "command: [y], depends_on: [a]}\n")
+                .find("cycle"),
+            std::string::npos);
+  EXPECT_NE(error_of("services:\n  - {name: a, command: []}\n").find("m.yaml:2"),
+            std::string::npos);
+  EXPECT_NE(error_of("services: [").find("m.yaml"), std::string::npos);
+  EXPECT_THROW(tp::load_manifest("/nonexistent/pipeline.yaml"), thermovis::runtime::ConfigError);
+}
+
+}  // namespace

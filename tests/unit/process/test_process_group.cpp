@@ -1,0 +1,126 @@
+// Real child processes: restart with backoff, policies, stop, kill -9, missing executables.
+#include <gtest/gtest.h>
+#include <signal.h>
+
+#include <chrono>
+#include <fstream>
+#include <thread>
+
+#include "thermovis/process/process_group.hpp"
+#include "thermovis/test/data.hpp"
+
+namespace tp = thermovis::process;
+using namespace std::chrono_literals;
+
+namespace {
+
+tp::ServiceSpec service(const std::string& name, std::vector<std::string> command,
+                        tp::RestartPolicy restart) {
+  tp::ServiceSpec spec;
+  spec.name = name;
+  spec.command = std::move(command);
+  spec.restart = restart;
+  spec.backoff_initial_s = 0.02;
+  spec.backoff_max_s = 0.08;
+  spec.stop_timeout_s = 1.0;
+  return spec;
+}
+
+// Polls until pred() or the timeout; returns pred().
+template <typename Pred>
+bool poll_until(tp::ProcessGroup& group, Pred pred, std::chrono::milliseconds timeout = 5000ms) {
+  const auto end = std::chrono::steady_clock::now() + timeout;
+  while (std::chrono::steady_clock::now() < end) {
+    group.poll();
+    if (pred()) return true;
+    std::this_thread::sleep_for(5ms);
+  }
+  return pred();
+}
+
+TEST(ProcessGroup, FailingServiceIsRestartedWithBackoffAndLogsItsOutput) {
+  const auto dir = thermovis::test::temp_dir("pg-restart");
+  tp::Manifest m;
+  m.services.push_back(service("flaky", {"/bin/sh", "-c", "echo started ${word}; exit 3"},
+                               tp::RestartPolicy::on_failure));
+  tp::ProcessGroup group(m, {{{"word", "here"}}, dir});
+  group.start_all();
+  ASSERT_TRUE(poll_until(group, [&] { return group.status("flaky").restarts >= 3; }));
+  const auto& st = group.status("flaky");
+  EXPECT_EQ(st.last_exit_code, 3);
+  EXPECT_NE(st.last_error.find("code 3"), std::string::npos) << st.last_error;
+  group.stop_all();
+  std::ifstream log(dir / "flaky.log");
+  std::string first;
+  std::getline(log, first);
+  EXPECT_EQ(first, "started here");
+  std::filesystem::remove_all(dir);
+}
+
+TEST(ProcessGroup, PoliciesDecideWhatHappensOnExit) {
+  tp::Manifest m;
+  m.services.push_back(service("once", {"/bin/sh", "-c", "exit 0"}, tp::RestartPolicy::on_failure));
+  m.services.push_back(service("never", {"/bin/sh", "-c", "exit 1"}, tp::RestartPolicy::never));
+  m.services.push_back(service("always", {"/bin/sh", "-c", "exit 0"}, tp::RestartPolicy::always));
+  tp::ProcessGroup group(m, {});
+  group.start_all();
+  ASSERT_TRUE(poll_until(group, [&] { return group.status("always").restarts >= 2; }));
+  EXPECT_EQ(group.status("once").state, tp::ServiceState::stopped);
+  EXPECT_EQ(group.status("once").restarts, 0);
+  EXPECT_EQ(group.status("never").state, tp::ServiceState::failed);
+  EXPECT_EQ(group.status("never").restarts, 0);
+}
+
+TEST(ProcessGroup, KilledServiceComesBackAndOthersKeepRunning) {
+  tp::Manifest m;
+  m.services.push_back(service("a", {"/bin/sleep", "30"}, tp::RestartPolicy::on_failure));
+  m.services.push_back(service("b", {"/bin/sleep", "30"}, tp::RestartPolicy::on_failure));
+  tp::ProcessGroup group(m, {});
+  group.start_all();
+  const pid_t a_pid = group.status("a").pid;
+  const pid_t b_pid = group.status("b").pid;
+  ASSERT_GT(a_pid, 0);
+  ASSERT_EQ(kill(a_pid, SIGKILL), 0);
+  ASSERT_TRUE(poll_until(group, [&] {
+    return group.status("a").state == tp::ServiceState::running && group.status("a").pid != a_pid;
+  }));
+  EXPECT_EQ(group.status("a").restarts, 1);
+  EXPECT_NE(group.status("a").last_error.find("signal"), std::string::npos);
+  EXPECT_EQ(group.status("b").pid, b_pid);
+  group.stop_all();
+  EXPECT_EQ(group.status("a").state, tp::ServiceState::stopped);
+  EXPECT_EQ(group.status("b").state, tp::ServiceState::stopped);
+  EXPECT_NE(kill(b_pid, 0), 0);  // really gone
+}
+
+TEST(ProcessGroup, ServiceIgnoringSigtermIsKilledAfterItsTimeout) {
+  tp::Manifest m;
+  auto spec =
+      service("stubborn", {"/bin/sh", "-c", "trap '' TERM; while true; do sleep 0.05; done"},
+              tp::RestartPolicy::never);
+  spec.stop_timeout_s = 0.3;
+  m.services.push_back(spec);
+  tp::ProcessGroup group(m, {});
+  group.start_all();
+  std::this_thread::sleep_for(100ms);
+  const pid_t pid = group.status("stubborn").pid;
+  group.stop_all();
+  EXPECT_EQ(group.status("stubborn").state, tp::ServiceState::failed);
+  EXPECT_NE(kill(pid, 0), 0);
+}
+
+TEST(ProcessGroup, MissingExecutableIsNamed) {
+  tp::Manifest m;
+  m.services.push_back(
+      service("ghost", {"/nonexistent/thermovis-ghost"}, tp::RestartPolicy::never));
+  tp::ProcessGroup group(m, {});
+  try {
+    group.start_all();
+    FAIL() << "missing executable accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("ghost"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/thermovis-ghost"), std::string::npos);
+  }
+}
+
+}  // namespace
