@@ -4,6 +4,9 @@
 #include <cmath>
 #include <stdexcept>
 
+#include <opencv2/core/utility.hpp>
+
+#include "thermovis/camera/field.hpp"
 #include "thermovis/camera/taylor.hpp"
 
 namespace thermovis::rectify {
@@ -67,6 +70,40 @@ camera::RectifiedIntrinsics grid_matching_camera(const camera::RigCamera& raw, i
   return grid;
 }
 
+camera::RectifiedIntrinsics default_pair_grid(const camera::Rig& rig,
+                                              const camera::StereoPair& pair,
+                                              camera::RectifiedProjection projection) {
+  const auto& left = rig.camera(pair.left);
+  const auto& right = rig.camera(pair.right);
+  double field = 0.0;  // rad
+  for (const auto* cam : {&left, &right}) {
+    if (const auto* taylor = dynamic_cast<const camera::TaylorCamera*>(cam->model.get())) {
+      field = std::max(field, camera::field_figures(*taylor, 64).horizontal_deg * M_PI / 180.0);
+    } else {
+      // Any model: the angle between the rays of the outer columns on the middle row.
+      const cv::Size size = cam->model->image_size();
+      Eigen::Vector3d a, b;
+      if (cam->model->unproject({-0.5, size.height / 2.0}, a) &&
+          cam->model->unproject({size.width - 0.5, size.height / 2.0}, b)) {
+        field = std::max(field, std::atan2(a.cross(b).norm(), a.dot(b)));
+      }
+    }
+  }
+  const Eigen::Vector3d axis_left = left.T_ref_cam.linear().col(2);
+  const Eigen::Vector3d axis_right = right.T_ref_cam.linear().col(2);
+  field += std::atan2(axis_left.cross(axis_right).norm(), axis_left.dot(axis_right));
+  camera::RectifiedIntrinsics grid = grid_matching_camera(left, 2);
+  grid.projection = projection;
+  if (projection == camera::RectifiedProjection::equirectangular) {
+    grid.width = 2 * static_cast<int>(std::ceil(grid.f * field / 2.0));
+  } else {
+    // Cylindrical columns grow as tan(alpha): the same angle needs f tan(field / 2) each side.
+    grid.width = 2 * static_cast<int>(std::ceil(grid.f * std::tan(std::min(field, 3.0) / 2.0)));
+  }
+  grid.cx = (grid.width - 1) / 2.0;
+  return grid;
+}
+
 cv::Mat build_map(const camera::RigCamera& cam, const Eigen::Isometry3d& T_ref_rect,
                   const camera::RectifiedCamera& grid, double registration_distance_m,
                   cv::Rect roi) {
@@ -76,19 +113,21 @@ cv::Mat build_map(const camera::RigCamera& cam, const Eigen::Isometry3d& T_ref_r
   cv::Mat map(roi.size(), CV_32FC2, cv::Scalar(-1.0f, -1.0f));
   const Eigen::Isometry3d T_cam_rect = cam.T_ref_cam.inverse() * T_ref_rect;
   const bool at_infinity = !(registration_distance_m > 0.0);
-  for (int v = 0; v < roi.height; ++v) {
-    auto* out = map.ptr<cv::Vec2f>(v);
-    for (int u = 0; u < roi.width; ++u) {
-      Eigen::Vector3d ray;
-      if (!grid.unproject({u + roi.x, v + roi.y}, ray)) continue;
-      const Eigen::Vector3d in_cam =
-          at_infinity ? Eigen::Vector3d(T_cam_rect.linear() * ray)
-                      : Eigen::Vector3d(T_cam_rect * (ray * registration_distance_m));
-      Eigen::Vector2d px;
-      if (!cam.model->project(in_cam, px)) continue;
-      out[u] = cv::Vec2f(static_cast<float>(px.x()), static_cast<float>(px.y()));
+  cv::parallel_for_(cv::Range(0, roi.height), [&](const cv::Range& rows) {
+    for (int v = rows.start; v < rows.end; ++v) {
+      auto* out = map.ptr<cv::Vec2f>(v);
+      for (int u = 0; u < roi.width; ++u) {
+        Eigen::Vector3d ray;
+        if (!grid.unproject({u + roi.x, v + roi.y}, ray)) continue;
+        const Eigen::Vector3d in_cam =
+            at_infinity ? Eigen::Vector3d(T_cam_rect.linear() * ray)
+                        : Eigen::Vector3d(T_cam_rect * (ray * registration_distance_m));
+        Eigen::Vector2d px;
+        if (!cam.model->project(in_cam, px)) continue;
+        out[u] = cv::Vec2f(static_cast<float>(px.x()), static_cast<float>(px.y()));
+      }
     }
-  }
+  });
   return map;
 }
 

@@ -32,11 +32,22 @@ StereoGeometry make_stereo_geometry(const camera::Rig& rig, const camera::Stereo
 // (equirectangular, centred).
 camera::RectifiedIntrinsics grid_matching_camera(const camera::RigCamera& raw, int width);
 
+// The default grid of a stereo pair (used by `thermovis rectify` and the pipeline): the left
+// camera's centre resolution (grid_matching_camera), and a width that covers the wider of the
+// two eyes' horizontal fields plus the angle between their optical axes (each eye is rotated
+// by about half of it in the shared rectified frame), rounded up to an even number of columns
+// (so a symmetric map can be stored as a quarter). Paper rig: visible 1864 x 1082 px, 835.4 px
+// per rad, 127.9 deg wide; infrared 924 x 796 px, 416.2 px per rad, 127.2 deg wide.
+camera::RectifiedIntrinsics default_pair_grid(
+    const camera::Rig& rig, const camera::StereoPair& pair,
+    camera::RectifiedProjection projection = camera::RectifiedProjection::equirectangular);
+
 // For every pixel of `grid` seen from the rectified frame T_ref_rect, the raw pixel of `camera`
 // (CV_32FC2: x = column, y = row) that sees the same scene point. Points are taken at
 // `registration_distance_m` from the rectified frame's origin; <= 0 means at infinity (pure
 // rotation, exact for the camera whose centre is that origin). Pixels with no valid ray get
-// (-1, -1). `roi` restricts the map to part of the grid (the map then has the roi's size).
+// (-1, -1). Computed in parallel over rows (cv::parallel_for_). `roi` restricts the map to part of
+// the grid (the map then has the roi's size).
 cv::Mat build_map(const camera::RigCamera& camera, const Eigen::Isometry3d& T_ref_rect,
                   const camera::RectifiedCamera& grid, double registration_distance_m = 0.0,
                   cv::Rect roi = {});
