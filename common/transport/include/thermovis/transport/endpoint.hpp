@@ -1,0 +1,108 @@
+#pragma once
+// Untyped halves of the typed Writer<T> and Reader<T> (writer.hpp, reader.hpp): entity
+// creation with the QoS of qos.hpp, matched-status waits, and the per-topic counters fed by the
+// DEADLINE and matching listener callbacks.
+#include <chrono>
+#include <condition_variable>
+#include <memory>
+#include <mutex>
+#include <string>
+
+#include <fastdds/dds/core/LoanableCollection.hpp>
+#include <fastdds/dds/publisher/DataWriter.hpp>
+#include <fastdds/dds/subscriber/DataReader.hpp>
+#include <fastdds/dds/subscriber/SampleInfo.hpp>
+#include <fastdds/dds/topic/TypeSupport.hpp>
+
+#include "thermovis/transport/counters.hpp"
+#include "thermovis/transport/participant.hpp"
+#include "thermovis/transport/qos.hpp"
+
+namespace thermovis::transport {
+
+// Matched-count bookkeeping shared by writers and readers: the listener stores the count and
+// wakes waiters.
+class MatchedCount {
+ public:
+  void set(std::uint32_t count, TopicCounters& counters);
+  // True once at least `count` endpoints are matched, false on timeout.
+  bool wait_at_least(std::uint32_t count, std::chrono::milliseconds timeout);
+
+ private:
+  std::mutex mutex_;
+  std::condition_variable changed_;
+  std::uint32_t count_ = 0;
+};
+
+class WriterBase {
+ public:
+  WriterBase(Participant& participant, const std::string& topic,
+             const eprosima::fastdds::dds::TypeSupport& type, const TopicQos& qos);
+  virtual ~WriterBase();
+  WriterBase(const WriterBase&) = delete;
+  WriterBase& operator=(const WriterBase&) = delete;
+
+  // Waits until `count` readers are matched (discovery done). False on timeout.
+  bool wait_for_readers(std::uint32_t count, std::chrono::milliseconds timeout);
+  TopicCountersSnapshot counters() const { return counters_->snapshot(topic_); }
+  const std::string& topic_name() const { return topic_; }
+  const TopicQos& qos() const { return qos_; }
+  eprosima::fastdds::dds::DataWriter& native() { return *writer_; }
+
+ protected:
+  // A sample buffer inside the writer's pool (the data-sharing segment for plain types).
+  // Throws when the type is not plain or the pool is exhausted.
+  void* loan_raw();
+  void discard_raw(void* sample) noexcept;
+  // Publishes a loaned buffer (ownership goes back to the writer) or copies a user sample.
+  void write_raw(void* sample);
+
+ private:
+  class Listener;
+  std::shared_ptr<Participant::State> participant_;
+  std::string topic_;
+  TopicQos qos_;
+  std::shared_ptr<TopicCounters> counters_;
+  std::shared_ptr<MatchedCount> matched_;
+  std::unique_ptr<Listener> listener_;
+  eprosima::fastdds::dds::DataWriter* writer_ = nullptr;
+};
+
+class ReaderBase {
+ public:
+  ReaderBase(Participant& participant, const std::string& topic,
+             const eprosima::fastdds::dds::TypeSupport& type, const TopicQos& qos);
+  virtual ~ReaderBase();
+  ReaderBase(const ReaderBase&) = delete;
+  ReaderBase& operator=(const ReaderBase&) = delete;
+
+  // Waits until `count` writers are matched. False on timeout.
+  bool wait_for_writers(std::uint32_t count, std::chrono::milliseconds timeout);
+  // Waits until an unread sample is available. False on timeout.
+  bool wait_for_data(std::chrono::nanoseconds timeout);
+  TopicCountersSnapshot counters() const { return counters_->snapshot(topic_); }
+  const std::string& topic_name() const { return topic_; }
+  const TopicQos& qos() const { return qos_; }
+  eprosima::fastdds::dds::DataReader& native() { return *reader_; }
+
+ protected:
+  // Takes up to max_samples into `data` (loaned from the reader when `data` owns no buffers).
+  // Returns the number of samples with valid data; 0 when nothing was available.
+  std::size_t take_raw(eprosima::fastdds::dds::LoanableCollection& data,
+                       eprosima::fastdds::dds::SampleInfoSeq& infos, std::int32_t max_samples);
+  void return_raw(eprosima::fastdds::dds::LoanableCollection& data,
+                  eprosima::fastdds::dds::SampleInfoSeq& infos) noexcept;
+  bool still_valid_raw(const void* sample, const eprosima::fastdds::dds::SampleInfo& info);
+
+ private:
+  class Listener;
+  std::shared_ptr<Participant::State> participant_;
+  std::string topic_;
+  TopicQos qos_;
+  std::shared_ptr<TopicCounters> counters_;
+  std::shared_ptr<MatchedCount> matched_;
+  std::unique_ptr<Listener> listener_;
+  eprosima::fastdds::dds::DataReader* reader_ = nullptr;
+};
+
+}  // namespace thermovis::transport

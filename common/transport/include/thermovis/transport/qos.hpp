@@ -1,0 +1,46 @@
+#pragma once
+// The QoS of thermovis topics: one place for history depths, pool sizes, reliability,
+// durability and deadlines, so every service gets the same settings for the same topic.
+#include <chrono>
+#include <cstdint>
+
+#include <fastdds/dds/publisher/qos/DataWriterQos.hpp>
+#include <fastdds/dds/subscriber/qos/DataReaderQos.hpp>
+
+namespace thermovis::transport {
+
+enum class TopicKind {
+  frame,  // plain image frames: data-sharing with loans, KEEP_LAST 2-4, pools sized exactly
+  event,  // small per-frame messages (detections, ranges, timing): RELIABLE, VOLATILE
+  state,  // latest state per key (health): RELIABLE, TRANSIENT_LOCAL, KEEP_LAST 1
+};
+
+struct TopicQos {
+  TopicKind kind = TopicKind::event;
+  // KEEP_LAST depth (per instance). Frames: 2..4; the pools hold exactly this many samples
+  // (allocated_samples = max_samples = depth), the Fast DDS defaults would preallocate about
+  // 100 samples per reader (620 MB for a 6.2 MB frame).
+  std::int32_t depth = 8;
+  // Readers expected on a frame topic: each may hold one loaned sample while the writer fills
+  // the next, so the writer's pool gets extra_samples = max_readers + 1.
+  std::int32_t max_readers = 2;
+  // DEADLINE period: the longest gap between two samples before the writer's and readers'
+  // listeners report a miss. Zero: no deadline.
+  std::chrono::nanoseconds deadline{0};
+};
+
+// 50 Hz frames: a sample every 20 ms.
+inline constexpr std::chrono::milliseconds kDefaultFrameDeadline{20};
+
+TopicQos frame_topic_qos(std::chrono::nanoseconds deadline = kDefaultFrameDeadline,
+                         std::int32_t depth = 2, std::int32_t max_readers = 2);
+TopicQos event_topic_qos(std::int32_t depth = 8);
+TopicQos state_topic_qos();
+
+// Throws std::invalid_argument naming the bad field (depth out of range, negative deadline...).
+void validate(const TopicQos& qos);
+
+eprosima::fastdds::dds::DataWriterQos writer_qos(const TopicQos& qos);
+eprosima::fastdds::dds::DataReaderQos reader_qos(const TopicQos& qos);
+
+}  // namespace thermovis::transport

@@ -1,0 +1,26 @@
+#pragma once
+// Where a pointer lives: the file mapping of this process (from /proc/self/maps) that contains
+// it. Used to check that a sample really sits in a data-sharing segment shared with another
+// process (zero-copy) rather than in private heap memory.
+#include <cstdint>
+#include <optional>
+#include <string>
+
+namespace thermovis::transport {
+
+struct Mapping {
+  std::uintptr_t begin = 0, end = 0;  // address range [begin, end)
+  std::uint64_t offset = 0;           // offset of `begin` in the mapped file, bytes
+  std::string path;                   // mapped file ("" for anonymous memory)
+};
+
+// The mapping containing `address`, or nothing (e.g. on a system without /proc).
+std::optional<Mapping> mapping_of(const void* address);
+
+// Offset of `address` inside the file of its mapping, bytes.
+std::uint64_t file_offset(const Mapping& mapping, const void* address);
+
+// True when `path` is a Fast DDS data-sharing segment (/dev/shm/fast_datasharing_*).
+bool is_data_sharing_segment(const std::string& path);
+
+}  // namespace thermovis::transport

@@ -1,0 +1,19 @@
+#pragma once
+// Topic names of the pipeline (README, "DDS topics and types"). thermovis/ranges with type
+// thermovis::RangeArray is the public contract for other DDS applications.
+namespace thermovis::transport::topics {
+
+inline constexpr const char* kVisibleFrames = "thermovis/frames/visible";    // VisibleStereoFrame
+inline constexpr const char* kInfraredFrames = "thermovis/frames/infrared";  // InfraredStereoFrame
+inline constexpr const char* kRectifiedVisible =
+    "thermovis/rectified/visible";  // GridStereoFrame, BGR8
+inline constexpr const char* kRectifiedInfrared =
+    "thermovis/rectified/infrared";                                 // GridStereoFrame, MONO8
+inline constexpr const char* kFused = "thermovis/fused";            // GridStereoFrame
+inline constexpr const char* kDetections = "thermovis/detections";  // DetectionArray
+inline constexpr const char* kMatches = "thermovis/matches";        // MatchArray
+inline constexpr const char* kRanges = "thermovis/ranges";          // RangeArray
+inline constexpr const char* kTiming = "thermovis/timing";          // FrameTiming
+inline constexpr const char* kHealth = "thermovis/health";          // Health (keyed by service)
+
+}  // namespace thermovis::transport::topics

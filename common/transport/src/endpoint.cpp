@@ -1,0 +1,223 @@
+#include "thermovis/transport/endpoint.hpp"
+
+#include <stdexcept>
+
+#include <fastdds/dds/publisher/DataWriter.hpp>
+#include <fastdds/dds/publisher/DataWriterListener.hpp>
+#include <fastdds/dds/publisher/Publisher.hpp>
+#include <fastdds/dds/subscriber/DataReader.hpp>
+#include <fastdds/dds/subscriber/DataReaderListener.hpp>
+#include <fastdds/dds/subscriber/Subscriber.hpp>
+#include <fastdds/dds/topic/Topic.hpp>
+
+namespace thermovis::transport {
+
+namespace dds = eprosima::fastdds::dds;
+
+void MatchedCount::set(std::uint32_t count, TopicCounters& counters) {
+  {
+    const std::lock_guard lock(mutex_);
+    count_ = count;
+  }
+  counters.matched = count;
+  changed_.notify_all();
+}
+
+bool MatchedCount::wait_at_least(std::uint32_t count, std::chrono::milliseconds timeout) {
+  std::unique_lock lock(mutex_);
+  return changed_.wait_for(lock, timeout, [&] { return count_ >= count; });
+}
+
+namespace {
+
+std::string return_code_name(const ReturnCode_t& code) {
+  switch (code()) {
+    case ReturnCode_t::RETCODE_OK:
+      return "OK";
+    case ReturnCode_t::RETCODE_ERROR:
+      return "ERROR";
+    case ReturnCode_t::RETCODE_UNSUPPORTED:
+      return "UNSUPPORTED";
+    case ReturnCode_t::RETCODE_BAD_PARAMETER:
+      return "BAD_PARAMETER";
+    case ReturnCode_t::RETCODE_PRECONDITION_NOT_MET:
+      return "PRECONDITION_NOT_MET";
+    case ReturnCode_t::RETCODE_OUT_OF_RESOURCES:
+      return "OUT_OF_RESOURCES";
+    case ReturnCode_t::RETCODE_NOT_ENABLED:
+      return "NOT_ENABLED";
+    case ReturnCode_t::RETCODE_TIMEOUT:
+      return "TIMEOUT";
+    case ReturnCode_t::RETCODE_NO_DATA:
+      return "NO_DATA";
+    case ReturnCode_t::RETCODE_ILLEGAL_OPERATION:
+      return "ILLEGAL_OPERATION";
+    default:
+      return "code " + std::to_string(code());
+  }
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------------------------------------
+// Writer
+
+class WriterBase::Listener : public dds::DataWriterListener {
+ public:
+  Listener(std::shared_ptr<TopicCounters> counters, std::shared_ptr<MatchedCount> matched)
+      : counters_(std::move(counters)), matched_(std::move(matched)) {}
+
+  void on_publication_matched(dds::DataWriter*,
+                              const dds::PublicationMatchedStatus& status) override {
+    matched_->set(static_cast<std::uint32_t>(status.current_count), *counters_);
+  }
+  void on_offered_deadline_missed(dds::DataWriter*,
+                                  const dds::OfferedDeadlineMissedStatus& status) override {
+    counters_->offered_deadline_missed = static_cast<std::uint32_t>(status.total_count);
+  }
+
+ private:
+  std::shared_ptr<TopicCounters> counters_;
+  std::shared_ptr<MatchedCount> matched_;
+};
+
+WriterBase::WriterBase(Participant& participant, const std::string& topic,
+                       const dds::TypeSupport& type, const TopicQos& qos)
+    : participant_(participant.state()),
+      topic_(topic),
+      qos_(qos),
+      counters_(std::make_shared<TopicCounters>()),
+      matched_(std::make_shared<MatchedCount>()),
+      listener_(std::make_unique<Listener>(counters_, matched_)) {
+  if (qos.kind == TopicKind::frame && !type->is_plain()) {
+    throw std::invalid_argument("frame topic '" + topic + "': type " + type.get_type_name() +
+                                " is not plain, it cannot be delivered by data-sharing");
+  }
+  dds::Topic* dds_topic = participant_->topic(topic, type);
+  const dds::StatusMask mask = dds::StatusMask::publication_matched()
+                               << dds::StatusMask::offered_deadline_missed();
+  writer_ =
+      participant_->publisher->create_datawriter(dds_topic, writer_qos(qos), listener_.get(), mask);
+  if (writer_ == nullptr) {
+    throw std::runtime_error("cannot create DDS writer on '" + topic + "' (see the Fast DDS log)");
+  }
+}
+
+WriterBase::~WriterBase() {
+  // Stop callbacks before the listener goes, then delete the writer.
+  writer_->set_listener(nullptr);
+  participant_->publisher->delete_datawriter(writer_);
+}
+
+bool WriterBase::wait_for_readers(std::uint32_t count, std::chrono::milliseconds timeout) {
+  return matched_->wait_at_least(count, timeout);
+}
+
+void* WriterBase::loan_raw() {
+  void* sample = nullptr;
+  const ReturnCode_t code = writer_->loan_sample(sample);
+  if (code != ReturnCode_t::RETCODE_OK) {
+    throw std::runtime_error("cannot loan a sample on '" + topic_ + "': " + return_code_name(code) +
+                             (code == ReturnCode_t::RETCODE_OUT_OF_RESOURCES
+                                  ? " (every pool slot is loaned or unread)"
+                                  : ""));
+  }
+  return sample;
+}
+
+void WriterBase::discard_raw(void* sample) noexcept { writer_->discard_loan(sample); }
+
+void WriterBase::write_raw(void* sample) {
+  const ReturnCode_t code = writer_->write(sample);
+  if (code != ReturnCode_t::RETCODE_OK) {
+    throw std::runtime_error("cannot write on '" + topic_ + "': " + return_code_name(code));
+  }
+  ++counters_->samples;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Reader
+
+class ReaderBase::Listener : public dds::DataReaderListener {
+ public:
+  Listener(std::shared_ptr<TopicCounters> counters, std::shared_ptr<MatchedCount> matched)
+      : counters_(std::move(counters)), matched_(std::move(matched)) {}
+
+  void on_subscription_matched(dds::DataReader*,
+                               const dds::SubscriptionMatchedStatus& status) override {
+    matched_->set(static_cast<std::uint32_t>(status.current_count), *counters_);
+  }
+  void on_requested_deadline_missed(dds::DataReader*,
+                                    const dds::RequestedDeadlineMissedStatus& status) override {
+    counters_->requested_deadline_missed = static_cast<std::uint32_t>(status.total_count);
+  }
+
+ private:
+  std::shared_ptr<TopicCounters> counters_;
+  std::shared_ptr<MatchedCount> matched_;
+};
+
+ReaderBase::ReaderBase(Participant& participant, const std::string& topic,
+                       const dds::TypeSupport& type, const TopicQos& qos)
+    : participant_(participant.state()),
+      topic_(topic),
+      qos_(qos),
+      counters_(std::make_shared<TopicCounters>()),
+      matched_(std::make_shared<MatchedCount>()),
+      listener_(std::make_unique<Listener>(counters_, matched_)) {
+  if (qos.kind == TopicKind::frame && !type->is_plain()) {
+    throw std::invalid_argument("frame topic '" + topic + "': type " + type.get_type_name() +
+                                " is not plain, it cannot be delivered by data-sharing");
+  }
+  dds::Topic* dds_topic = participant_->topic(topic, type);
+  const dds::StatusMask mask = dds::StatusMask::subscription_matched()
+                               << dds::StatusMask::requested_deadline_missed();
+  reader_ = participant_->subscriber->create_datareader(dds_topic, reader_qos(qos), listener_.get(),
+                                                        mask);
+  if (reader_ == nullptr) {
+    throw std::runtime_error("cannot create DDS reader on '" + topic + "' (see the Fast DDS log)");
+  }
+}
+
+ReaderBase::~ReaderBase() {
+  reader_->set_listener(nullptr);
+  participant_->subscriber->delete_datareader(reader_);
+}
+
+bool ReaderBase::wait_for_writers(std::uint32_t count, std::chrono::milliseconds timeout) {
+  return matched_->wait_at_least(count, timeout);
+}
+
+bool ReaderBase::wait_for_data(std::chrono::nanoseconds timeout) {
+  const auto seconds = std::chrono::duration_cast<std::chrono::seconds>(timeout);
+  return reader_->wait_for_unread_message(
+      eprosima::fastrtps::Duration_t(static_cast<std::int32_t>(seconds.count()),
+                                     static_cast<std::uint32_t>((timeout - seconds).count())));
+}
+
+std::size_t ReaderBase::take_raw(dds::LoanableCollection& data, dds::SampleInfoSeq& infos,
+                                 std::int32_t max_samples) {
+  const ReturnCode_t code =
+      reader_->take(data, infos, max_samples < 0 ? dds::LENGTH_UNLIMITED : max_samples);
+  if (code == ReturnCode_t::RETCODE_NO_DATA) return 0;
+  if (code != ReturnCode_t::RETCODE_OK) {
+    throw std::runtime_error("cannot take from '" + topic_ + "': " + return_code_name(code));
+  }
+  std::size_t valid = 0;
+  for (dds::LoanableCollection::size_type i = 0; i < infos.length(); ++i) {
+    if (infos[i].valid_data) ++valid;
+  }
+  counters_->samples += valid;
+  return valid;
+}
+
+void ReaderBase::return_raw(dds::LoanableCollection& data, dds::SampleInfoSeq& infos) noexcept {
+  if (data.has_ownership()) return;  // nothing was loaned (no data)
+  reader_->return_loan(data, infos);
+}
+
+bool ReaderBase::still_valid_raw(const void* sample, const dds::SampleInfo& info) {
+  return reader_->is_sample_valid(sample, &info);
+}
+
+}  // namespace thermovis::transport

@@ -1,0 +1,127 @@
+#include "thermovis/transport/participant.hpp"
+
+#include <cstdlib>
+#include <map>
+#include <mutex>
+#include <set>
+#include <stdexcept>
+
+#include <fastdds/dds/domain/DomainParticipant.hpp>
+#include <fastdds/dds/domain/DomainParticipantFactory.hpp>
+#include <fastdds/dds/publisher/Publisher.hpp>
+#include <fastdds/dds/subscriber/Subscriber.hpp>
+#include <fastdds/dds/topic/Topic.hpp>
+
+namespace thermovis::transport {
+
+namespace dds = eprosima::fastdds::dds;
+
+namespace {
+
+// Fast DDS keeps loaded profiles for the whole process and refuses a second load of the same
+// file (duplicate profile names), so each file is loaded once.
+void load_profiles_once(const std::filesystem::path& file) {
+  static std::mutex mutex;
+  static std::set<std::string> loaded;
+  const std::lock_guard lock(mutex);
+  const std::string key = std::filesystem::absolute(file).lexically_normal().string();
+  if (loaded.count(key) != 0) return;
+  if (!std::filesystem::is_regular_file(file)) {
+    throw std::runtime_error("DDS profile file not found: " + file.string());
+  }
+  if (dds::DomainParticipantFactory::get_instance()->load_XML_profiles_file(key) !=
+      ReturnCode_t::RETCODE_OK) {
+    throw std::runtime_error("DDS profile file could not be parsed: " + file.string() +
+                             " (see the Fast DDS log above for the line)");
+  }
+  loaded.insert(key);
+}
+
+}  // namespace
+
+std::filesystem::path profile_dir() {
+  if (const char* env = std::getenv("THERMOVIS_DDS_PROFILE_DIR"); env != nullptr && *env != '\0') {
+    return env;
+  }
+  return THERMOVIS_DDS_PROFILE_DIR;
+}
+
+std::filesystem::path shipped_profile_file(const std::string& profile) {
+  static const std::map<std::string, std::string> files = {{kHostProfile, "host.xml"},
+                                                           {kLoopbackProfile, "loopback.xml"}};
+  const auto it = files.find(profile);
+  if (it == files.end()) {
+    throw std::invalid_argument("unknown DDS participant profile '" + profile +
+                                "' (shipped: thermovis_host, thermovis_loopback)");
+  }
+  return profile_dir() / it->second;
+}
+
+Participant::Participant(const ParticipantConfig& config) : state_(std::make_shared<State>()) {
+  if (config.domain_id < 0 || config.domain_id > 232) {
+    throw std::invalid_argument("DDS domain id " + std::to_string(config.domain_id) +
+                                " out of range 0..232");
+  }
+  const std::filesystem::path file =
+      config.profiles_file.empty() ? shipped_profile_file(config.profile) : config.profiles_file;
+  load_profiles_once(file);
+
+  auto* factory = dds::DomainParticipantFactory::get_instance();
+  dds::DomainParticipantQos qos;
+  if (factory->get_participant_qos_from_profile(config.profile, qos) != ReturnCode_t::RETCODE_OK) {
+    throw std::runtime_error("DDS participant profile '" + config.profile + "' not found in " +
+                             file.string());
+  }
+  if (!config.name.empty()) qos.name(config.name);
+  state_->domain_id = config.domain_id;
+  state_->participant = factory->create_participant(config.domain_id, qos);
+  if (state_->participant == nullptr) {
+    throw std::runtime_error("cannot create DDS participant on domain " +
+                             std::to_string(config.domain_id) + " with profile '" + config.profile +
+                             "' of " + file.string());
+  }
+  state_->publisher = state_->participant->create_publisher(dds::PUBLISHER_QOS_DEFAULT);
+  state_->subscriber = state_->participant->create_subscriber(dds::SUBSCRIBER_QOS_DEFAULT);
+  if (state_->publisher == nullptr || state_->subscriber == nullptr) {
+    throw std::runtime_error("cannot create the DDS publisher/subscriber on domain " +
+                             std::to_string(config.domain_id));
+  }
+}
+
+Participant::~Participant() = default;
+
+int Participant::domain_id() const { return state_->domain_id; }
+
+dds::DomainParticipant& Participant::native() { return *state_->participant; }
+
+dds::Topic* Participant::State::topic(const std::string& name, const dds::TypeSupport& type) {
+  static std::mutex mutex;  // topics are created rarely; one lock for all participants
+  const std::lock_guard lock(mutex);
+  if (dds::TopicDescription* existing = participant->lookup_topicdescription(name)) {
+    if (existing->get_type_name() != type.get_type_name()) {
+      throw std::runtime_error("topic '" + name + "' already has type " +
+                               existing->get_type_name() + ", not " + type.get_type_name());
+    }
+    return dynamic_cast<dds::Topic*>(existing);
+  }
+  if (participant->find_type(type.get_type_name()).empty()) {
+    if (type.register_type(participant) != ReturnCode_t::RETCODE_OK) {
+      throw std::runtime_error("cannot register DDS type " + type.get_type_name());
+    }
+  }
+  dds::Topic* topic = participant->create_topic(name, type.get_type_name(), dds::TOPIC_QOS_DEFAULT);
+  if (topic == nullptr) {
+    throw std::runtime_error("cannot create DDS topic '" + name + "' of type " +
+                             type.get_type_name());
+  }
+  return topic;
+}
+
+Participant::State::~State() {
+  if (participant == nullptr) return;
+  // Endpoints are gone (they hold this state); remove topics, publisher, subscriber.
+  participant->delete_contained_entities();
+  dds::DomainParticipantFactory::get_instance()->delete_participant(participant);
+}
+
+}  // namespace thermovis::transport
