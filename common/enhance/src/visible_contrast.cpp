@@ -1,0 +1,46 @@
+#include "thermovis/enhance/visible_contrast.hpp"
+
+#include <stdexcept>
+#include <vector>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace thermovis::enhance {
+
+cv::Mat replace_luma(const cv::Mat& bgr, const cv::Mat& luma, const cv::Mat& new_luma) {
+  if (bgr.channels() == 1) return new_luma;
+  cv::Mat shift;
+  cv::subtract(new_luma, luma, shift, cv::noArray(), CV_16S);
+  cv::Mat shift3;
+  cv::merge(std::vector<cv::Mat>{shift, shift, shift}, shift3);
+  cv::Mat out;
+  cv::add(bgr, shift3, out, cv::noArray(), CV_8U);
+  return out;
+}
+
+cv::Mat enhance_visible(const cv::Mat& visible, const VisibleContrastParams& params) {
+  if (visible.empty()) throw std::invalid_argument("visible enhancement: empty image");
+  if (visible.type() != CV_8UC1 && visible.type() != CV_8UC3) {
+    throw std::invalid_argument("visible enhancement needs CV_8UC1 or CV_8UC3, got " +
+                                cv::typeToString(visible.type()));
+  }
+  if (!(params.clip_limit > 0.0) || params.tiles_x < 1 || params.tiles_y < 1) {
+    throw std::invalid_argument("visible enhancement: clip_limit must be > 0 and tiles >= 1");
+  }
+  // One CLAHE object per thread: it keeps scratch buffers between calls.
+  thread_local cv::Ptr<cv::CLAHE> clahe = cv::createCLAHE();
+  clahe->setClipLimit(params.clip_limit);
+  clahe->setTilesGridSize(cv::Size(params.tiles_x, params.tiles_y));
+  if (visible.channels() == 1) {
+    cv::Mat out;
+    clahe->apply(visible, out);
+    return out;
+  }
+  cv::Mat luma, enhanced;
+  cv::cvtColor(visible, luma, cv::COLOR_BGR2GRAY);
+  clahe->apply(luma, enhanced);
+  return replace_luma(visible, luma, enhanced);
+}
+
+}  // namespace thermovis::enhance

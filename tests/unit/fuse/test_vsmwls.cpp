@@ -1,0 +1,96 @@
+// VSM-WLS against VIFB: our uint8 output against the golden PNGs (the reference code's output
+// before VIFB's JPEG step) and our metric averages over the 21 pairs against VIFB's published
+// VSMWLS averages, under VIFB's protocol (quality-75 JPEG, per channel).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <iostream>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "thermovis/fuse/fusion.hpp"
+#include "thermovis/metrics/vifb_metrics.hpp"
+#include "thermovis/metrics/vifb_tables.hpp"
+#include "thermovis/test/data.hpp"
+
+namespace {
+
+namespace vm = thermovis::metrics;
+namespace fu = thermovis::fuse;
+
+cv::Mat read(const std::filesystem::path& p) {
+  cv::Mat m = cv::imread(p.string(), cv::IMREAD_UNCHANGED);
+  if (m.empty()) ADD_FAILURE() << "cannot read " << p;
+  return m;
+}
+
+std::vector<std::string> vifb_names(const std::filesystem::path& dir) {
+  std::vector<std::string> names;
+  for (const auto& e : std::filesystem::directory_iterator(dir / "VI"))
+    names.push_back(e.path().stem().string());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+double psnr_u8(const cv::Mat& a, const cv::Mat& b) {
+  const double mse = cv::norm(a, b, cv::NORM_L2SQR) / static_cast<double>(a.total() * a.channels());
+  return mse == 0.0 ? 99.0 : 10.0 * std::log10(255.0 * 255.0 / mse);
+}
+
+// All 21 pairs against the golden PNGs: equal up to rounding (at most one grey level, on a
+// handful of pixels). Measured: see the README's Fusion section.
+TEST(Vsmwls, MatchesGoldenUint8OutputOnAllVifbPairs) {
+  THERMOVIS_REQUIRE_DATA(dir, "fusion/vifb");
+  double worst = 0.0, psnr_sum = 0.0, min_psnr = 1e9;
+  std::size_t off_pixels = 0, total_pixels = 0;
+  const auto names = vifb_names(dir);
+  ASSERT_EQ(names.size(), 21u);
+  for (const auto& name : names) {
+    const cv::Mat ir = read(dir / "IR" / (name + ".jpg"));
+    const cv::Mat vis = read(dir / "VI" / (name + ".jpg"));
+    const cv::Mat golden = read(dir / "generated_uint8_VSMWLS" / (name + "_VSMWLS.png"));
+    const cv::Mat ours = fu::fuse(ir, vis);
+    ASSERT_EQ(ours.size(), golden.size());
+    ASSERT_EQ(ours.type(), golden.type()) << name;
+    cv::Mat diff;
+    cv::absdiff(ours, golden, diff);
+    double max_diff = 0.0;
+    cv::minMaxLoc(diff.reshape(1), nullptr, &max_diff);
+    worst = std::max(worst, max_diff);
+    off_pixels += static_cast<std::size_t>(cv::countNonZero(diff.reshape(1)));
+    total_pixels += diff.total() * static_cast<std::size_t>(diff.channels());
+    const double p = psnr_u8(ours, golden);
+    psnr_sum += p;
+    min_psnr = std::min(min_psnr, p);
+    EXPECT_LE(max_diff, 1.0) << name;
+  }
+  std::cout << "golden: max abs difference " << worst << ", values differing " << off_pixels
+            << " of " << total_pixels << ", mean PSNR " << psnr_sum / 21.0 << " dB, min "
+            << min_psnr << " dB\n";
+  EXPECT_LE(worst, 1.0);
+  EXPECT_LT(static_cast<double>(off_pixels) / static_cast<double>(total_pixels), 1e-4);
+}
+
+// Averages over the 21 pairs within 3 % of VIFB's published VSMWLS row on every metric.
+TEST(Vsmwls, VifbAveragesWithinThreePercent) {
+  THERMOVIS_REQUIRE_DATA(dir, "fusion/vifb");
+  const auto published = vm::load_vifb_averages(dir / "vifb_metrics_average.csv").at("VSMWLS");
+  vm::MetricValues sum;
+  const auto names = vifb_names(dir);
+  for (const auto& name : names) {
+    const cv::Mat ir = read(dir / "IR" / (name + ".jpg"));
+    const cv::Mat vis = read(dir / "VI" / (name + ".jpg"));
+    const auto v = vm::vifb_metrics(vis, ir, vm::jpeg_round_trip(fu::fuse(ir, vis)));
+    for (auto m : vm::all_metrics()) sum[m] += v[m];
+  }
+  for (auto m : vm::all_metrics()) {
+    const double mean = sum[m] / static_cast<double>(names.size());
+    const double rel = std::abs(mean - published[m]) / std::abs(published[m]);
+    std::cout << vm::metric_name(m) << " ours " << mean << " VIFB " << published[m] << " rel "
+              << rel << "\n";
+    EXPECT_LT(rel, 0.03) << vm::metric_name(m);
+  }
+}
+
+}  // namespace
