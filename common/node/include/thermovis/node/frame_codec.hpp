@@ -1,0 +1,34 @@
+#pragma once
+// IDL frame <-> cv::Mat. The views are Mat headers over the frame's own arrays (no copy): a view
+// of a loaned sample is valid as long as the loan. Every view checks the frame's header fields
+// first and throws FrameError naming the topic-independent problem (size, format).
+#include <opencv2/core/mat.hpp>
+#include <stdexcept>
+
+#include "thermovis/frames.h"
+
+namespace thermovis::node {
+
+class FrameError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+enum class Eye { left, right };
+
+// OpenCV type of a pixel format (CV_8UC3, CV_8UC1, CV_16UC1); FrameError for unknown ones.
+int cv_type_of(PixelFormat format);
+PixelFormat pixel_format_of(int cv_type);
+
+// Read-only views of received frames (FrameError when width/height/format are impossible).
+cv::Mat view(const VisibleStereoFrame& frame, Eye eye);
+cv::Mat view(const InfraredStereoFrame& frame, Eye eye);
+cv::Mat view(const GridStereoFrame& frame, Eye eye);
+
+// Writable views into frames being filled (e.g. a loaned sample): sets width, height and
+// pixel_format, returns the Mat to render or copy into. FrameError when `size` does not fit.
+cv::Mat prepare(VisibleStereoFrame& frame, Eye eye, cv::Size size);
+cv::Mat prepare(InfraredStereoFrame& frame, Eye eye, cv::Size size);
+cv::Mat prepare(GridStereoFrame& frame, Eye eye, cv::Size size, int cv_type);
+
+}  // namespace thermovis::node

@@ -1,0 +1,51 @@
+#pragma once
+// A service's health on thermovis/health (RELIABLE + TRANSIENT_LOCAL, keyed by service name):
+// state, frames processed, bad inputs and the last error, and the deadline counters of every
+// topic it reads or writes. Published on every state change and at most once per period.
+#include <chrono>
+#include <functional>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "thermovis/health.h"
+#include "thermovis/transport/counters.hpp"
+#include "thermovis/transport/writer.hpp"
+
+namespace thermovis::node {
+
+class HealthReporter {
+ public:
+  using CountersSource = std::function<std::vector<transport::TopicCountersSnapshot>()>;
+
+  HealthReporter(transport::Participant& participant, std::string service,
+                 CountersSource counters = {},
+                 std::chrono::milliseconds period = std::chrono::milliseconds(1000));
+
+  void set_state(HealthState state, const std::string& message);
+  void frame_processed();
+  // Counts a bad input and keeps its message; the state becomes DEGRADED until `recover_after`
+  // good frames have passed.
+  void bad_input(const std::string& message);
+  // Publishes if the period has passed since the last publication.
+  void tick();
+  void publish_now();
+
+  std::uint64_t frames_processed() const;
+  std::uint32_t errors() const;
+
+ private:
+  transport::Writer<Health> writer_;
+  std::string service_;
+  CountersSource counters_;
+  std::chrono::milliseconds period_;
+  mutable std::mutex mutex_;
+  HealthState state_ = HEALTH_STARTING;
+  std::string message_;
+  std::uint64_t frames_ = 0;
+  std::uint32_t errors_ = 0;
+  std::uint64_t good_since_error_ = 0;
+  std::chrono::steady_clock::time_point last_publish_{};
+};
+
+}  // namespace thermovis::node

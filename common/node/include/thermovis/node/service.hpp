@@ -1,0 +1,38 @@
+#pragma once
+// What every thermovis service shares: the stop flag its signal handlers set, the options every
+// service takes (domain, DDS profile, rig, config) and the per-stage time stamps it appends.
+#include <CLI/CLI.hpp>
+#include <atomic>
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include "thermovis/common.h"
+#include "thermovis/transport/participant.hpp"
+
+namespace thermovis::node {
+
+// SIGINT and SIGTERM set the flag (the handler does nothing else); services poll it.
+void install_stop_handlers();
+bool stop_requested();
+void request_stop();  // e.g. from a test harness or after a fatal error
+
+struct CommonOptions {
+  std::string service;  // e.g. "thermovis-range" (health key)
+  int domain = 0;       // DDS domain; $THERMOVIS_DOMAIN when set
+  std::string profile = transport::kHostProfile;
+  std::filesystem::path profiles_file;  // empty: the shipped file of `profile`
+  std::filesystem::path rig;            // empty: runtime::default_rig_path()
+  std::filesystem::path config;         // optional service config YAML
+};
+
+// Adds --domain, --profile, --profiles-file, --rig and --config to `app`.
+void add_common_options(CLI::App& app, CommonOptions& options);
+
+std::unique_ptr<transport::Participant> make_participant(const CommonOptions& options);
+
+// Appends one stage's stamp; a full stamp list keeps its first entries (and the last stage's
+// stamp replaces the final slot so the end of the pipeline is never lost).
+void append_stamp(PipelineStamps& stamps, Stage stage, std::int64_t start_ns, std::int64_t end_ns);
+
+}  // namespace thermovis::node

@@ -1,0 +1,106 @@
+#include "thermovis/node/frame_codec.hpp"
+
+#include <string>
+
+namespace thermovis::node {
+namespace {
+
+std::string size_text(std::uint32_t width, std::uint32_t height) {
+  return std::to_string(width) + "x" + std::to_string(height);
+}
+
+// Checks the header of a frame against its array capacity; returns the Mat type.
+int checked_type(const char* what, std::uint64_t seq, PixelFormat format, std::uint32_t width,
+                 std::uint32_t height, std::size_t capacity_bytes, PixelFormat expected = 0) {
+  const std::string frame = std::string(what) + " frame " + std::to_string(seq);
+  if (expected != 0 && format != expected) {
+    throw FrameError(frame + ": pixel format " + std::to_string(format) + ", expected " +
+                     std::to_string(expected));
+  }
+  const int type = cv_type_of(format);
+  if (width == 0 || height == 0)
+    throw FrameError(frame + ": empty image " + size_text(width, height));
+  const std::size_t bytes = std::size_t{width} * height * CV_ELEM_SIZE(type);
+  if (bytes > capacity_bytes) {
+    throw FrameError(frame + ": " + size_text(width, height) + " image does not fit the " +
+                     std::to_string(capacity_bytes) + "-byte array of the type");
+  }
+  return type;
+}
+
+template <class Array>
+void* eye_data(const Array& left, const Array& right, Eye eye) {
+  return const_cast<void*>(static_cast<const void*>(eye == Eye::left ? left.data() : right.data()));
+}
+
+}  // namespace
+
+int cv_type_of(PixelFormat format) {
+  switch (format) {
+    case PIXEL_FORMAT_BGR8:
+      return CV_8UC3;
+    case PIXEL_FORMAT_MONO8:
+      return CV_8UC1;
+    case PIXEL_FORMAT_MONO16:
+      return CV_16UC1;
+    default:
+      throw FrameError("unknown pixel format " + std::to_string(format));
+  }
+}
+
+PixelFormat pixel_format_of(int cv_type) {
+  switch (cv_type) {
+    case CV_8UC3:
+      return PIXEL_FORMAT_BGR8;
+    case CV_8UC1:
+      return PIXEL_FORMAT_MONO8;
+    case CV_16UC1:
+      return PIXEL_FORMAT_MONO16;
+    default:
+      throw FrameError("no pixel format for OpenCV type " + std::to_string(cv_type));
+  }
+}
+
+cv::Mat view(const VisibleStereoFrame& f, Eye eye) {
+  const int type = checked_type("visible", f.seq(), f.pixel_format(), f.width(), f.height(),
+                                f.left().size(), PIXEL_FORMAT_BGR8);
+  return cv::Mat(static_cast<int>(f.height()), static_cast<int>(f.width()), type,
+                 eye_data(f.left(), f.right(), eye));
+}
+
+cv::Mat view(const InfraredStereoFrame& f, Eye eye) {
+  const int type = checked_type("infrared", f.seq(), f.pixel_format(), f.width(), f.height(),
+                                f.left().size() * sizeof(std::uint16_t), PIXEL_FORMAT_MONO16);
+  return cv::Mat(static_cast<int>(f.height()), static_cast<int>(f.width()), type,
+                 eye_data(f.left(), f.right(), eye));
+}
+
+cv::Mat view(const GridStereoFrame& f, Eye eye) {
+  const int type =
+      checked_type("grid", f.seq(), f.pixel_format(), f.width(), f.height(), f.left().size());
+  return cv::Mat(static_cast<int>(f.height()), static_cast<int>(f.width()), type,
+                 eye_data(f.left(), f.right(), eye));
+}
+
+cv::Mat prepare(VisibleStereoFrame& f, Eye eye, cv::Size size) {
+  f.pixel_format(PIXEL_FORMAT_BGR8);
+  f.width(static_cast<std::uint32_t>(size.width));
+  f.height(static_cast<std::uint32_t>(size.height));
+  return view(f, eye);
+}
+
+cv::Mat prepare(InfraredStereoFrame& f, Eye eye, cv::Size size) {
+  f.pixel_format(PIXEL_FORMAT_MONO16);
+  f.width(static_cast<std::uint32_t>(size.width));
+  f.height(static_cast<std::uint32_t>(size.height));
+  return view(f, eye);
+}
+
+cv::Mat prepare(GridStereoFrame& f, Eye eye, cv::Size size, int cv_type) {
+  f.pixel_format(pixel_format_of(cv_type));
+  f.width(static_cast<std::uint32_t>(size.width));
+  f.height(static_cast<std::uint32_t>(size.height));
+  return view(f, eye);
+}
+
+}  // namespace thermovis::node

@@ -1,0 +1,103 @@
+#include "thermovis/node/health.hpp"
+
+#include "thermovis/transport/clock.hpp"
+#include "thermovis/transport/qos.hpp"
+#include "thermovis/transport/topics.hpp"
+
+namespace thermovis::node {
+namespace {
+
+// Good frames after a bad input before the state goes back from DEGRADED to OK.
+constexpr std::uint64_t kRecoverAfterFrames = 50;
+
+std::string clip(const std::string& text, std::size_t max) {
+  return text.size() <= max ? text : text.substr(0, max - 3) + "...";
+}
+
+}  // namespace
+
+HealthReporter::HealthReporter(transport::Participant& participant, std::string service,
+                               CountersSource counters, std::chrono::milliseconds period)
+    : writer_(participant, transport::topics::kHealth, transport::state_topic_qos()),
+      service_(std::move(service)),
+      counters_(std::move(counters)),
+      period_(period) {}
+
+void HealthReporter::set_state(HealthState state, const std::string& message) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    state_ = state;
+    message_ = message;
+  }
+  publish_now();
+}
+
+void HealthReporter::frame_processed() {
+  bool recovered = false;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++frames_;
+    ++good_since_error_;
+    if (state_ == HEALTH_STARTING) {
+      state_ = HEALTH_OK;
+      recovered = true;
+    } else if (state_ == HEALTH_DEGRADED && good_since_error_ >= kRecoverAfterFrames) {
+      state_ = HEALTH_OK;
+      recovered = true;
+    }
+  }
+  if (recovered) publish_now();
+}
+
+void HealthReporter::bad_input(const std::string& message) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++errors_;
+    good_since_error_ = 0;
+    message_ = message;
+    if (state_ != HEALTH_FAILED && state_ != HEALTH_STOPPING) state_ = HEALTH_DEGRADED;
+  }
+  publish_now();
+}
+
+void HealthReporter::tick() {
+  if (std::chrono::steady_clock::now() - last_publish_ >= period_) publish_now();
+}
+
+void HealthReporter::publish_now() {
+  Health health;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    health.service(service_);
+    health.state(state_);
+    health.frames_processed(frames_);
+    health.errors(errors_);
+    health.message(clip(message_, MAX_HEALTH_MESSAGE_LENGTH));
+  }
+  health.time_ns(transport::now_ns());
+  if (counters_) {
+    for (const auto& c : counters_()) {
+      if (health.topics().size() >= MAX_HEALTH_TOPICS) break;
+      TopicHealth topic;
+      topic.topic(clip(c.topic, MAX_TOPIC_NAME_LENGTH));
+      topic.samples(c.samples);
+      topic.requested_deadline_missed(c.requested_deadline_missed);
+      topic.offered_deadline_missed(c.offered_deadline_missed);
+      health.topics().push_back(topic);
+    }
+  }
+  writer_.write(health);
+  last_publish_ = std::chrono::steady_clock::now();
+}
+
+std::uint64_t HealthReporter::frames_processed() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return frames_;
+}
+
+std::uint32_t HealthReporter::errors() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return errors_;
+}
+
+}  // namespace thermovis::node

@@ -1,0 +1,63 @@
+#include "thermovis/node/service.hpp"
+
+#include <signal.h>
+
+#include <algorithm>
+#include <csignal>
+#include <cstdlib>
+
+namespace thermovis::node {
+namespace {
+
+std::atomic<bool> g_stop{false};
+
+extern "C" void on_stop_signal(int /*signal*/) { g_stop.store(true); }
+
+}  // namespace
+
+void install_stop_handlers() {
+  struct sigaction action {};
+  action.sa_handler = on_stop_signal;
+  sigemptyset(&action.sa_mask);
+  sigaction(SIGINT, &action, nullptr);
+  sigaction(SIGTERM, &action, nullptr);
+}
+
+bool stop_requested() { return g_stop.load(); }
+void request_stop() { g_stop.store(true); }
+
+void add_common_options(CLI::App& app, CommonOptions& options) {
+  if (const char* env = std::getenv("THERMOVIS_DOMAIN"); env != nullptr && *env != '\0') {
+    options.domain = std::atoi(env);
+  }
+  app.add_option("--domain", options.domain, "DDS domain id (default $THERMOVIS_DOMAIN or 0)")
+      ->check(CLI::Range(0, 232));
+  app.add_option("--profile", options.profile,
+                 "DDS participant profile: thermovis_host (shared memory) or thermovis_loopback");
+  app.add_option("--profiles-file", options.profiles_file, "DDS XML profiles file");
+  app.add_option("--rig", options.rig, "rig YAML (default deploy/rigs/paper.yaml)");
+  app.add_option("--config", options.config, "service configuration YAML");
+}
+
+std::unique_ptr<transport::Participant> make_participant(const CommonOptions& options) {
+  transport::ParticipantConfig config;
+  config.domain_id = options.domain;
+  config.profile = options.profile;
+  config.profiles_file = options.profiles_file.empty()
+                             ? transport::shipped_profile_file(options.profile)
+                             : options.profiles_file;
+  config.name = options.service;
+  return std::make_unique<transport::Participant>(config);
+}
+
+void append_stamp(PipelineStamps& stamps, Stage stage, std::int64_t start_ns, std::int64_t end_ns) {
+  const std::uint32_t capacity = static_cast<std::uint32_t>(stamps.stamps().size());
+  const std::uint32_t slot = std::min(stamps.count(), capacity - 1);
+  StageStamp& stamp = stamps.stamps()[slot];
+  stamp.stage(stage);
+  stamp.start_ns(start_ns);
+  stamp.end_ns(end_ns);
+  stamps.count(slot + 1);
+}
+
+}  // namespace thermovis::node
