@@ -1,0 +1,114 @@
+#pragma once
+// Ranging of targets from stereo correspondences on a rectified grid (the paper's Section 2.4).
+//
+// Frames: the left rectified frame (rectify/stereo_geometry.hpp) has its origin at the left
+// camera centre, x along the baseline towards the right camera, y down, z forward; the right
+// rectified frame is the same rotation at the right camera centre (baseline_m along x). Both eyes
+// share one rectified grid, so a row is an epipolar plane (angle beta about the baseline) and a
+// column gives alpha, the angle of a ray out of the plane perpendicular to the baseline.
+//
+// Triangulation (Eq. 31-33): theta = pi/2 - alpha for each eye; in the epipolar plane the
+// triangle (left centre, right centre, target) has angle theta_L at the left centre, pi - theta_R
+// at the right one and theta_R - theta_L = alpha_L - alpha_R at the target, so by the sine rule
+// the distance from the left centre is B = A sin(theta_R) / sin(theta_R - theta_L)
+//                                      = A cos(alpha_R) / sin(alpha_L - alpha_R),
+// and the depth (Eq. 33) is B sin(theta_L) cos(beta) = B cos(alpha_L) cos(beta). No pinhole
+// approximation: valid over the whole wide field of the grid (equirectangular or cylindrical).
+//
+// Per target (Eq. 34): gross outliers (beyond median +- 5 scaled median absolute deviations: far
+// background, points near infinity, which would drag the mean) are dropped first; then the
+// per-point distances d_i are kept within mean +- mean absolute deviation (Eq. 34, one pass as in
+// the paper), and the target distance is the mean of the kept points.
+//
+// Uncertainty: Eq. 2 (dL = L^2 dc / (f d)) is the pinhole form of the derivative dB/d(disparity)
+// used here on the angular grid. The disparity noise is measured from the points themselves by
+// bootstrapping the whole Eq. 34 estimator over the target's points (so the rejection's effect
+// is included), scaled by a small-sample Student factor, and combined with a floor for the
+// systematic sub-pixel error (rectification/calibration residual, px) that averaging cannot
+// remove.
+#include <Eigen/Geometry>
+#include <limits>
+#include <opencv2/core/types.hpp>
+#include <string>
+#include <vector>
+
+#include "thermovis/camera/rectified.hpp"
+#include "thermovis/match/stereo_match.hpp"
+
+namespace thermovis::range {
+
+struct RangingGeometry {
+  camera::RectifiedCamera grid;  // the rectified grid both eyes share
+  double baseline_m = 0.0;       // distance between the two camera centres (A of Eq. 32)
+  // Left rectified frame in the rig frame (the reference camera's frame, metres), used to report
+  // positions; identity reports them in the left rectified frame.
+  Eigen::Isometry3d T_ref_left_rect = Eigen::Isometry3d::Identity();
+};
+
+struct PointTriangulation {
+  bool valid = false;
+  double alpha_left = 0, alpha_right = 0, beta = 0;  // rad
+  double distance_m = 0;                             // B of Eq. 32: from the left camera centre
+  double depth_m = 0;                                // Eq. 33: along the rectified z axis
+  Eigen::Vector3d position_left_rect = Eigen::Vector3d::Zero();  // m
+  double distance_per_px = 0;  // |dB / d disparity|, m per px (Eq. 2 on the angular grid)
+};
+
+// One correspondence: left pixel (column, row) and disparity (px, left column - right column).
+// Invalid when the disparity is not positive (target at or beyond infinity), a ray leaves the
+// grid's domain, or the input is not finite.
+PointTriangulation triangulate(const camera::RectifiedCamera& grid, double baseline_m,
+                               const Eigen::Vector2d& left_px, double disparity_px);
+
+// The inverse: where a point of the left rectified frame appears (left pixel and disparity).
+// False when it is not in front of both eyes' grids.
+bool project_point(const camera::RectifiedCamera& grid, double baseline_m,
+                   const Eigen::Vector3d& position_left_rect, Eigen::Vector2d& left_px,
+                   double& disparity_px);
+
+enum class RangeStatus {
+  ok,
+  empty_box,             // the box has no area
+  box_outside_image,     // the box does not overlap the image
+  target_at_image_edge,  // no usable points and the box touches the image edge (the other eye
+                         // or the correlation patch cannot see the target there)
+  no_matches,            // no correspondence in the box
+  too_few_points,        // fewer than min_points valid points after the rejection
+};
+std::string status_name(RangeStatus status);
+
+struct RangeOptions {
+  int min_points = 3;                     // kept points needed for a distance
+  double systematic_disparity_px = 0.02;  // floor of the disparity error that averaging keeps
+  int bootstrap_samples = 100;            // resamples for the uncertainty
+  int edge_margin_px = 5;                 // a box this close to the image border is at the edge
+  int max_rejection_passes = 1;           // Eq. 34 passes (1 = the paper's)
+};
+
+struct TargetRange {
+  RangeStatus status = RangeStatus::no_matches;
+  std::string message;  // why there is no distance (empty when ok)
+  static constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+  double distance_m = nan;          // from the left camera centre, mean of the kept points
+  double depth_m = nan;             // Eq. 33, mean of the kept points
+  double sigma_m = nan;             // one-sigma uncertainty of distance_m
+  double disparity_px = nan;        // mean disparity of the kept points
+  double disparity_sigma_px = nan;  // sigma_m expressed as disparity
+  Eigen::Vector3d position_m = Eigen::Vector3d::Constant(nan);  // rig frame (T_ref_left_rect)
+  int points_total = 0;                                         // correspondences given
+  int points_valid = 0;                                         // of which triangulated
+  int points_used = 0;                                          // kept by Eq. 34
+  bool at_image_edge = false;
+};
+
+// Ranges one target: `box` in the left rectified image, `matches` the correspondences found in
+// it (only those whose left pixel lies in the box are used). Never throws on bad data: the status
+// and message say why there is no distance.
+TargetRange range_target(const RangingGeometry& geometry, const cv::Rect& box,
+                         const std::vector<match::Correspondence>& matches,
+                         const RangeOptions& options = {});
+
+// The gross-outlier screen then Eq. 34 (max_passes passes): the indices of the kept values.
+std::vector<int> reject_outliers_eq34(const std::vector<double>& values, int max_passes);
+
+}  // namespace thermovis::range

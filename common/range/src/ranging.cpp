@@ -1,0 +1,241 @@
+#include "thermovis/range/ranging.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <random>
+#include <sstream>
+
+namespace thermovis::range {
+
+PointTriangulation triangulate(const camera::RectifiedCamera& grid, double baseline_m,
+                               const Eigen::Vector2d& left_px, double disparity_px) {
+  PointTriangulation t;
+  if (!left_px.allFinite() || !std::isfinite(disparity_px) || !(disparity_px > 0.0) ||
+      !(baseline_m > 0.0)) {
+    return t;
+  }
+  const double right_column = left_px.x() - disparity_px;
+  t.alpha_left = grid.alpha_of_column(left_px.x());
+  t.alpha_right = grid.alpha_of_column(right_column);
+  const auto& g = grid.intrinsics();
+  t.beta = (left_px.y() - g.cy) / g.f;
+  const double half_pi = M_PI / 2;
+  if (std::abs(t.alpha_left) >= half_pi || std::abs(t.alpha_right) >= half_pi ||
+      std::abs(t.beta) >= M_PI) {
+    return t;
+  }
+  // Eq. 31-32: theta = pi/2 - alpha; B = A sin(theta_R) / sin(theta_R - theta_L).
+  const double angle_at_target = t.alpha_left - t.alpha_right;  // theta_R - theta_L
+  const double s = std::sin(angle_at_target);
+  if (!(s > 1e-12)) return t;
+  t.distance_m = baseline_m * std::cos(t.alpha_right) / s;
+  // Eq. 33: depth = B sin(theta_L) cos(beta).
+  t.depth_m = t.distance_m * std::cos(t.alpha_left) * std::cos(t.beta);
+  t.position_left_rect = t.distance_m * Eigen::Vector3d(std::sin(t.alpha_left),
+                                                        std::cos(t.alpha_left) * std::sin(t.beta),
+                                                        std::cos(t.alpha_left) * std::cos(t.beta));
+  // dB/d(alpha_R) = A cos(alpha_L) / sin^2(alpha_L - alpha_R); d(alpha_R)/d(disparity) is the
+  // grid's angle per column at the right pixel (1/f for equirectangular).
+  const double alpha_per_px =
+      grid.alpha_of_column(right_column + 0.5) - grid.alpha_of_column(right_column - 0.5);
+  t.distance_per_px = baseline_m * std::cos(t.alpha_left) / (s * s) * alpha_per_px;
+  t.valid = std::isfinite(t.distance_m) && t.distance_m > 0;
+  return t;
+}
+
+bool project_point(const camera::RectifiedCamera& grid, double baseline_m, const Eigen::Vector3d& p,
+                   Eigen::Vector2d& left_px, double& disparity_px) {
+  Eigen::Vector2d right_px;
+  if (!(p.z() > 0.0) || !grid.project(p, left_px)) return false;
+  if (!grid.project(p - Eigen::Vector3d(baseline_m, 0, 0), right_px)) return false;
+  disparity_px = left_px.x() - right_px.x();
+  return std::isfinite(disparity_px);
+}
+
+std::string status_name(RangeStatus status) {
+  switch (status) {
+    case RangeStatus::ok:
+      return "ok";
+    case RangeStatus::empty_box:
+      return "empty_box";
+    case RangeStatus::box_outside_image:
+      return "box_outside_image";
+    case RangeStatus::target_at_image_edge:
+      return "target_at_image_edge";
+    case RangeStatus::no_matches:
+      return "no_matches";
+    case RangeStatus::too_few_points:
+      return "too_few_points";
+  }
+  return "unknown";
+}
+
+std::vector<int> reject_outliers_eq34(const std::vector<double>& values, int max_passes) {
+  std::vector<int> kept;
+  if (values.empty()) return kept;
+  // Gross outliers first (far background, a point near infinity): a single far value moves the
+  // mean and the mean absolute deviation of Eq. 34 so much that the target's own points could be
+  // the ones rejected. Median +- 5 scaled median absolute deviations (about 5 sigma for
+  // Gaussian noise) removes only those.
+  std::vector<double> sorted(values);
+  const auto mid = sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2);
+  std::nth_element(sorted.begin(), mid, sorted.end());
+  const double median = *mid;
+  for (double& v : sorted) v = std::abs(v - median);
+  std::nth_element(sorted.begin(), mid, sorted.end());
+  const double spread = 5.0 * 1.4826 * *mid;
+  for (size_t i = 0; i < values.size(); ++i) {
+    if (std::abs(values[i] - median) <= spread || spread == 0.0)
+      kept.push_back(static_cast<int>(i));
+  }
+  if (spread == 0.0) {  // half or more of the values are identical: keep those
+    kept.clear();
+    for (size_t i = 0; i < values.size(); ++i)
+      if (values[i] == median) kept.push_back(static_cast<int>(i));
+  }
+  // Eq. 34: keep mean +- mean absolute deviation (max_passes = 1 is the paper's single pass).
+  for (int pass = 0; pass < max_passes && kept.size() > 2; ++pass) {
+    double mean = 0;
+    for (int i : kept) mean += values[static_cast<size_t>(i)];
+    mean /= static_cast<double>(kept.size());
+    double mad = 0;
+    for (int i : kept) mad += std::abs(values[static_cast<size_t>(i)] - mean);
+    mad /= static_cast<double>(kept.size());
+    std::vector<int> next;
+    next.reserve(kept.size());
+    for (int i : kept) {
+      if (std::abs(values[static_cast<size_t>(i)] - mean) <= mad) next.push_back(i);
+    }
+    if (next.size() == kept.size() || next.empty()) break;
+    kept.swap(next);
+  }
+  return kept;
+}
+
+namespace {
+
+double mean_of(const std::vector<double>& values, const std::vector<int>& indices) {
+  double sum = 0;
+  for (int i : indices) sum += values[static_cast<size_t>(i)];
+  return sum / static_cast<double>(indices.size());
+}
+
+TargetRange fail(TargetRange r, RangeStatus status, std::string message) {
+  r.status = status;
+  r.message = std::move(message);
+  return r;
+}
+
+}  // namespace
+
+TargetRange range_target(const RangingGeometry& geometry, const cv::Rect& box,
+                         const std::vector<match::Correspondence>& matches,
+                         const RangeOptions& options) {
+  TargetRange r;
+  r.points_total = static_cast<int>(matches.size());
+  const cv::Size size = geometry.grid.image_size();
+  const cv::Rect image(0, 0, size.width, size.height);
+  std::ostringstream where;
+  where << "box (x " << box.x << ", y " << box.y << ", " << box.width << " x " << box.height << ")";
+  if (box.width <= 0 || box.height <= 0) {
+    return fail(r, RangeStatus::empty_box, where.str() + " has no area");
+  }
+  const cv::Rect inside = box & image;
+  if (inside.empty()) {
+    return fail(r, RangeStatus::box_outside_image,
+                where.str() + " is outside the " + std::to_string(size.width) + " x " +
+                    std::to_string(size.height) + " image");
+  }
+  const int m = options.edge_margin_px;
+  r.at_image_edge = inside != box || box.x < m || box.y < m || box.br().x > size.width - m ||
+                    box.br().y > size.height - m;
+  if (!(geometry.baseline_m > 0.0)) {
+    throw std::invalid_argument("range_target: baseline must be positive");
+  }
+
+  // Per-point triangulation of the matches whose left pixel lies in the box.
+  std::vector<PointTriangulation> points;
+  std::vector<double> distances, disparities;
+  int in_box = 0;
+  for (const match::Correspondence& c : matches) {
+    if (!(c.left.x() >= inside.x - 0.5 && c.left.x() < inside.br().x - 0.5 &&
+          c.left.y() >= inside.y - 0.5 && c.left.y() < inside.br().y - 0.5)) {
+      continue;
+    }
+    ++in_box;
+    const PointTriangulation t =
+        triangulate(geometry.grid, geometry.baseline_m, c.left, c.disparity_px);
+    if (!t.valid) continue;
+    points.push_back(t);
+    distances.push_back(t.distance_m);
+    disparities.push_back(c.disparity_px);
+  }
+  r.points_valid = static_cast<int>(points.size());
+  if (points.empty()) {
+    if (r.at_image_edge) {
+      return fail(r, RangeStatus::target_at_image_edge,
+                  where.str() + " touches the image edge and has no valid correspondence: the " +
+                      "other eye or the correlation patch does not see the target there");
+    }
+    return fail(r, in_box == 0 ? RangeStatus::no_matches : RangeStatus::too_few_points,
+                in_box == 0 ? where.str() + ": no correspondence in the box"
+                            : where.str() + ": no correspondence with a positive disparity");
+  }
+  const std::vector<int> kept = reject_outliers_eq34(distances, options.max_rejection_passes);
+  r.points_used = static_cast<int>(kept.size());
+  if (r.points_used < std::max(1, options.min_points)) {
+    return fail(r,
+                r.at_image_edge ? RangeStatus::target_at_image_edge : RangeStatus::too_few_points,
+                where.str() + ": " + std::to_string(r.points_used) + " point(s) kept by Eq. 34, " +
+                    std::to_string(options.min_points) + " needed" +
+                    (r.at_image_edge ? " (the box touches the image edge)" : ""));
+  }
+  r.distance_m = mean_of(distances, kept);
+  r.disparity_px = mean_of(disparities, kept);
+  Eigen::Vector3d position = Eigen::Vector3d::Zero();
+  double depth = 0, distance_per_px = 0;
+  for (int i : kept) {
+    const PointTriangulation& t = points[static_cast<size_t>(i)];
+    position += t.position_left_rect;
+    depth += t.depth_m;
+    distance_per_px += t.distance_per_px;
+  }
+  const double n = static_cast<double>(kept.size());
+  r.depth_m = depth / n;
+  distance_per_px /= n;
+  // Scale the mean position onto the mean distance (the mean of points on a sphere lies inside it).
+  position /= n;
+  if (position.norm() > 0) position *= r.distance_m / position.norm();
+  r.position_m = geometry.T_ref_left_rect * position;
+
+  // Random part: bootstrap of the whole Eq. 34 estimator over the valid points (fixed seed: the
+  // same input gives the same uncertainty).
+  double random_sigma = 0;
+  if (points.size() >= 2 && options.bootstrap_samples > 1) {
+    std::mt19937 rng(static_cast<unsigned>(points.size()) * 2654435761u);
+    std::uniform_int_distribution<size_t> pick(0, points.size() - 1);
+    std::vector<double> sample(points.size());
+    double sum = 0, sum2 = 0;
+    for (int b = 0; b < options.bootstrap_samples; ++b) {
+      for (double& v : sample) v = distances[pick(rng)];
+      const double estimate =
+          mean_of(sample, reject_outliers_eq34(sample, options.max_rejection_passes));
+      sum += estimate;
+      sum2 += estimate * estimate;
+    }
+    const double B = options.bootstrap_samples;
+    random_sigma = std::sqrt(std::max(0.0, (sum2 - sum * sum / B) / (B - 1)));
+    // Small samples: the bootstrap spread is biased low by sqrt((n-1)/n), and a one-sigma
+    // interval needs Student's t_{0.84}(n-1) ~ 1 + 0.57/(n-1) to hold 68 %.
+    const double nv = static_cast<double>(points.size());
+    random_sigma *= std::sqrt(nv / (nv - 1)) * (1.0 + 0.57 / (nv - 1));
+  }
+  const double systematic_sigma = distance_per_px * options.systematic_disparity_px;
+  r.sigma_m = std::hypot(random_sigma, systematic_sigma);
+  r.disparity_sigma_px = distance_per_px > 0 ? r.sigma_m / distance_per_px : TargetRange::nan;
+  r.status = RangeStatus::ok;
+  return r;
+}
+
+}  // namespace thermovis::range

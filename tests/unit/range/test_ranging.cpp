@@ -1,0 +1,200 @@
+// Triangulation over the whole wide field, Eq. 34 rejection, the honesty of the uncertainty
+// (about 68 % of errors within one sigma) and the statuses of bad input.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "thermovis/range/ranging.hpp"
+
+namespace rg = thermovis::range;
+namespace cam = thermovis::camera;
+
+namespace {
+
+// The paper rig's visible grid (rectify::default_pair_grid): 1864 x 1082, 835.4 px per rad.
+cam::RectifiedCamera visible_grid(
+    cam::RectifiedProjection projection = cam::RectifiedProjection::equirectangular) {
+  cam::RectifiedIntrinsics g;
+  g.width = 1864;
+  g.height = 1082;
+  g.f = 835.4;
+  g.cx = (g.width - 1) / 2.0;
+  g.cy = (g.height - 1) / 2.0;
+  g.projection = projection;
+  return cam::RectifiedCamera(g);
+}
+
+constexpr double kBaseline = 0.335;
+
+// A target at `distance` along bearing (azimuth, elevation) in rad, in the left rectified frame.
+Eigen::Vector3d at_bearing(double distance, double azimuth, double elevation) {
+  return distance * Eigen::Vector3d(std::sin(azimuth), std::cos(azimuth) * std::sin(elevation),
+                                    std::cos(azimuth) * std::cos(elevation));
+}
+
+}  // namespace
+
+TEST(Triangulate, ExactOverTheWideFieldBothProjections) {
+  for (auto projection :
+       {cam::RectifiedProjection::equirectangular, cam::RectifiedProjection::cylindrical}) {
+    const cam::RectifiedCamera grid = visible_grid(projection);
+    for (double distance : {2.0, 5.0, 20.0, 60.0, 200.0})
+      for (double az_deg : {-58.0, -30.0, 0.0, 25.0, 58.0})
+        for (double el_deg : {-30.0, 0.0, 20.0}) {
+          const Eigen::Vector3d p = at_bearing(distance, az_deg * M_PI / 180, el_deg * M_PI / 180);
+          Eigen::Vector2d px;
+          double d = 0;
+          ASSERT_TRUE(rg::project_point(grid, kBaseline, p, px, d));
+          const rg::PointTriangulation t = rg::triangulate(grid, kBaseline, px, d);
+          ASSERT_TRUE(t.valid);
+          EXPECT_NEAR(t.distance_m, p.norm(), 1e-9 * distance);
+          EXPECT_NEAR((t.position_left_rect - p).norm(), 0.0, 1e-9 * distance);
+          EXPECT_NEAR(t.depth_m, p.z(), 1e-9 * distance);  // Eq. 33
+        }
+  }
+}
+
+TEST(Triangulate, SensitivityMatchesEq2AtTheCentreAndNumericEverywhere) {
+  const cam::RectifiedCamera grid = visible_grid();
+  // Eq. 2 at the centre: dL = L^2 dc / (f A).
+  for (double L : {5.0, 20.0, 60.0}) {
+    Eigen::Vector2d px;
+    double d = 0;
+    ASSERT_TRUE(rg::project_point(grid, kBaseline, at_bearing(L, 0.0, 0.0), px, d));
+    const auto t = rg::triangulate(grid, kBaseline, px, d);
+    EXPECT_NEAR(t.distance_per_px, L * L / (835.4 * kBaseline), 0.01 * L * L / (835.4 * kBaseline));
+  }
+  // Off axis: against a finite difference.
+  Eigen::Vector2d px;
+  double d = 0;
+  ASSERT_TRUE(rg::project_point(grid, kBaseline, at_bearing(30, 0.9, 0.2), px, d));
+  const auto t = rg::triangulate(grid, kBaseline, px, d);
+  const double numeric = (rg::triangulate(grid, kBaseline, px, d - 1e-4).distance_m -
+                          rg::triangulate(grid, kBaseline, px, d + 1e-4).distance_m) /
+                         2e-4;
+  EXPECT_NEAR(t.distance_per_px, numeric, 1e-4 * numeric);
+}
+
+TEST(Triangulate, NonPositiveOrBrokenDisparityIsInvalid) {
+  const cam::RectifiedCamera grid = visible_grid();
+  EXPECT_FALSE(rg::triangulate(grid, kBaseline, {900, 500}, 0.0).valid);
+  EXPECT_FALSE(rg::triangulate(grid, kBaseline, {900, 500}, -3.0).valid);
+  EXPECT_FALSE(rg::triangulate(grid, kBaseline, {900, 500}, std::nan("")).valid);
+  EXPECT_FALSE(rg::triangulate(grid, kBaseline, {std::nan(""), 500}, 5.0).valid);
+  EXPECT_FALSE(rg::triangulate(grid, 0.0, {900, 500}, 5.0).valid);
+}
+
+TEST(Eq34, RejectsBackgroundAndFarPoints) {
+  std::vector<double> v;
+  for (int i = 0; i < 70; ++i) v.push_back(20.0 + 0.01 * (i % 7 - 3));
+  for (int i = 0; i < 30; ++i) v.push_back(60.0);
+  v.push_back(3000.0);
+  const auto kept = rg::reject_outliers_eq34(v, 1);
+  ASSERT_FALSE(kept.empty());
+  for (int i : kept) EXPECT_LT(v[static_cast<size_t>(i)], 21.0);
+}
+
+namespace {
+
+struct Trial {
+  double error_m, sigma_m;
+};
+
+// A target of n points at distance L and random bearing, disparities with Gaussian noise of
+// sigma_px, and a fraction of background points (at 3 L); the truth is the distance of the
+// target's points (all at the same distance).
+Trial noisy_trial(std::mt19937& rng, const cam::RectifiedCamera& grid, double L, int n,
+                  double sigma_px, double background_fraction, const rg::RangeOptions& options) {
+  std::uniform_real_distribution<double> az(-0.9, 0.9), el(-0.3, 0.3), jitter(-0.01, 0.01), u(0, 1);
+  std::normal_distribution<double> noise(0.0, sigma_px);
+  const double a0 = az(rng), e0 = el(rng);
+  std::vector<thermovis::match::Correspondence> matches;
+  for (int i = 0; i < n; ++i) {
+    const bool background = u(rng) < background_fraction;
+    const Eigen::Vector3d p =
+        at_bearing(background ? 3 * L : L, a0 + jitter(rng), e0 + jitter(rng));
+    Eigen::Vector2d px;
+    double d = 0;
+    if (!rg::project_point(grid, kBaseline, p, px, d)) continue;
+    // Pixel-centre left point (like the matcher's snapped pixels), disparity of that pixel.
+    thermovis::match::Correspondence c{};
+    c.left = px;
+    c.disparity_px = d + noise(rng);
+    matches.push_back(c);
+  }
+  rg::RangingGeometry geometry{grid, kBaseline, Eigen::Isometry3d::Identity()};
+  const rg::TargetRange r =
+      rg::range_target(geometry, cv::Rect(0, 0, 1864, 1082), matches, options);
+  EXPECT_EQ(r.status, rg::RangeStatus::ok) << r.message;
+  return {r.distance_m - L, r.sigma_m};
+}
+
+}  // namespace
+
+TEST(RangeTarget, UncertaintyIsHonestOverManyTrials) {
+  const cam::RectifiedCamera grid = visible_grid();
+  rg::RangeOptions options;
+  options.systematic_disparity_px = 0.0;  // the synthetic noise is purely random
+  std::mt19937 rng(42);
+  std::uniform_real_distribution<double> distance(5, 60), noise(0.05, 0.3), bg(0.0, 0.3);
+  std::uniform_int_distribution<int> count(8, 200);
+  int within = 0;
+  const int trials = 1500;
+  for (int k = 0; k < trials; ++k) {
+    const Trial t = noisy_trial(rng, grid, distance(rng), count(rng), noise(rng), bg(rng), options);
+    within += std::abs(t.error_m) <= t.sigma_m;
+  }
+  const double fraction = double(within) / trials;
+  std::cout << "within one sigma: " << 100 * fraction << " %\n";
+  EXPECT_GT(fraction, 0.62);
+  EXPECT_LT(fraction, 0.75);
+}
+
+TEST(RangeTarget, AccurateWithManyPoints) {
+  const cam::RectifiedCamera grid = visible_grid();
+  std::mt19937 rng(3);
+  const Trial t = noisy_trial(rng, grid, 20.0, 300, 0.05, 0.2, {});
+  EXPECT_LT(std::abs(t.error_m), 0.1);
+  EXPECT_LT(std::abs(t.error_m), 3 * t.sigma_m);
+}
+
+TEST(RangeTarget, BadInputSaysWhy) {
+  const cam::RectifiedCamera grid = visible_grid();
+  const rg::RangingGeometry geometry{grid, kBaseline, Eigen::Isometry3d::Identity()};
+  std::vector<thermovis::match::Correspondence> matches;
+  thermovis::match::Correspondence c{};
+  c.left = {500, 500};
+  c.disparity_px = 10;
+  for (int i = 0; i < 5; ++i) matches.push_back(c);
+
+  auto r = rg::range_target(geometry, cv::Rect(480, 480, 0, 40), matches);
+  EXPECT_EQ(r.status, rg::RangeStatus::empty_box);
+  EXPECT_TRUE(std::isnan(r.distance_m));
+  EXPECT_FALSE(r.message.empty());
+  r = rg::range_target(geometry, cv::Rect(5000, 480, 40, 40), matches);
+  EXPECT_EQ(r.status, rg::RangeStatus::box_outside_image);
+  r = rg::range_target(geometry, cv::Rect(480, 480, 40, 40), {});
+  EXPECT_EQ(r.status, rg::RangeStatus::no_matches);
+  EXPECT_TRUE(std::isnan(r.sigma_m));
+  r = rg::range_target(geometry, cv::Rect(0, 480, 40, 40), {});
+  EXPECT_EQ(r.status, rg::RangeStatus::target_at_image_edge);
+  // Matches outside the box are not used.
+  r = rg::range_target(geometry, cv::Rect(100, 100, 40, 40), matches);
+  EXPECT_EQ(r.status, rg::RangeStatus::no_matches);
+  // Only non-positive disparities: no distance.
+  auto zero = matches;
+  for (auto& z : zero) z.disparity_px = 0.0;
+  r = rg::range_target(geometry, cv::Rect(480, 480, 40, 40), zero);
+  EXPECT_EQ(r.status, rg::RangeStatus::too_few_points);
+  EXPECT_TRUE(std::isnan(r.distance_m));
+  // NaN disparities are dropped, not propagated.
+  auto broken = matches;
+  broken[0].disparity_px = std::nan("");
+  r = rg::range_target(geometry, cv::Rect(480, 480, 40, 40), broken);
+  EXPECT_EQ(r.status, rg::RangeStatus::ok);
+  EXPECT_TRUE(std::isfinite(r.distance_m));
+  EXPECT_EQ(r.points_valid, 4);
+  // Good input: the distance of disparity 10 px at that column.
+  EXPECT_NEAR(r.distance_m, rg::triangulate(grid, kBaseline, {500, 500}, 10).distance_m, 1e-9);
+}
