@@ -53,10 +53,11 @@ struct MatchOptions {
 };
 
 struct Correspondence {
-  Eigen::Vector2d left;       // left rectified pixel (integer-snapped when refined)
-  Eigen::Vector2d right;      // right rectified pixel, same row model
-  double disparity_px = 0.0;  // left.x - right.x
-  double score = 0.0;         // ZNCC of the refined patch (1 = identical), or SGBM: 1
+  Eigen::Vector2d left =
+      Eigen::Vector2d::Zero();  // left rectified pixel (integer-snapped when refined)
+  Eigen::Vector2d right = Eigen::Vector2d::Zero();  // right rectified pixel, same row model
+  double disparity_px = 0.0;                        // left.x - right.x
+  double score = 0.0;  // ZNCC of the refined patch (1 = identical), or SGBM: 1
 };
 
 struct MatchResult {
