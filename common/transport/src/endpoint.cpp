@@ -128,7 +128,10 @@ void* WriterBase::loan_raw() {
 void WriterBase::discard_raw(void* sample) noexcept { writer_->discard_loan(sample); }
 
 void WriterBase::write_raw(void* sample) {
-  const ReturnCode_t code = writer_->write(sample);
+  // The two-argument overload returns a ReturnCode_t; write(void*) returns a bool, which would
+  // convert to RETCODE_ERROR (1) on success.
+  const ReturnCode_t code =
+      writer_->write(sample, eprosima::fastrtps::rtps::c_InstanceHandle_Unknown);
   if (code != ReturnCode_t::RETCODE_OK) {
     throw std::runtime_error("cannot write on '" + topic_ + "': " + return_code_name(code));
   }
