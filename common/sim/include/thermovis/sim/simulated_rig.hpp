@@ -1,0 +1,94 @@
+#pragma once
+// The simulated dual-band rig: renders a Scene through the four cameras of a Rig (each pixel's
+// ray from the camera's own model and pose), with ground truth for every target.
+//
+// Images (raw, as the cameras deliver them):
+//  visible left/right:  CV_8UC3, BGR, 8 bits, the camera model's size (1920x1080 for the paper);
+//  infrared left/right: CV_16UC1, raw counts with `bit_depth` bits used (14 for the paper).
+//
+// Cost: construction renders the static scene (ground, walls, sky and targets that do not
+// move) once per camera, anti-aliased at edges, and draws one normal noise plane for the seed.
+// render() then copies the static image through the noise step (noise plane at a per-frame
+// pseudo-random offset) and re-renders only the pixels the moving targets' boxes cover.
+//
+// Determinism: the images of frame k depend only on (rig, scene, seed, options, k): same inputs,
+// same bytes, in any order of frames. The scene's textures do not depend on the seed; the noise
+// (temporal and fixed-pattern) does.
+#include <Eigen/Core>
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <opencv2/core/mat.hpp>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "thermovis/camera/rig.hpp"
+#include "thermovis/sim/scene.hpp"
+
+namespace thermovis::sim {
+
+// The four cameras, in this order everywhere (FrameSet, truth boxes).
+enum class Slot { visible_left = 0, visible_right = 1, infrared_left = 2, infrared_right = 3 };
+inline constexpr int kSlotCount = 4;
+const char* to_string(Slot slot);  // "visible_left", ...
+
+struct FrameSet {
+  std::array<cv::Mat, kSlotCount> images;  // indexed by Slot
+  cv::Mat& operator[](Slot slot) { return images[static_cast<int>(slot)]; }
+  const cv::Mat& operator[](Slot slot) const { return images[static_cast<int>(slot)]; }
+};
+
+struct RenderOptions {
+  bool temporal_noise = true;  // visible shot + read noise, infrared NETD noise
+  bool fixed_pattern = true;   // infrared offset / gain non-uniformity
+};
+
+// A target's box in one raw image: the extent of its projected silhouette (occlusion ignored),
+// pixel coordinates (x = column, y = row, centres at integers), clipped to the image.
+struct TruthBox {
+  double x_min = 0.0, y_min = 0.0, x_max = 0.0, y_max = 0.0;
+};
+
+struct TargetTruth {
+  std::string id;
+  TargetClass cls = TargetClass::person;
+  // Centre of the target's bounding box in the left visible camera's frame, m.
+  Eigen::Vector3d position_m = Eigen::Vector3d::Zero();
+  double distance_m = 0.0;                                // |position_m|
+  std::array<std::optional<TruthBox>, kSlotCount> boxes;  // empty where it is not in the image
+};
+
+class SimulatedRig {
+ public:
+  // The rig must have the cameras its `visible` and `infrared` pairs name. Throws
+  // std::invalid_argument for an invalid scene (validate()) or rig.
+  SimulatedRig(camera::Rig rig, Scene scene, std::uint64_t seed, RenderOptions options = {});
+  ~SimulatedRig();
+  SimulatedRig(SimulatedRig&&) noexcept;
+  SimulatedRig& operator=(SimulatedRig&&) noexcept;
+
+  const camera::Rig& rig() const;
+  const Scene& scene() const;
+  const camera::RigCamera& camera(Slot slot) const;
+
+  // Buffers of the right sizes and types for render().
+  FrameSet allocate() const;
+  // Renders frame `frame_index` (time frame_index / frame_rate_hz) into `out`, whose images must
+  // already have the right size and type (allocate()); throws std::invalid_argument otherwise.
+  // Does not reallocate. Safe to call from several threads on different FrameSets.
+  void render(std::int64_t frame_index, FrameSet& out) const;
+
+  // Ground truth of every target at frame `frame_index`.
+  std::vector<TargetTruth> truth(std::int64_t frame_index) const;
+
+  // Pixels re-rendered for moving targets at this frame, summed over the four cameras (for
+  // benchmarks and reports).
+  std::int64_t dynamic_pixel_count(std::int64_t frame_index) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace thermovis::sim

@@ -1,0 +1,627 @@
+#include "thermovis/sim/simulated_rig.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <opencv2/core/utility.hpp>
+#include <opencv2/imgproc.hpp>
+#include <stdexcept>
+
+#include "world.hpp"
+
+namespace thermovis::sim {
+namespace {
+
+using detail::Hit;
+using detail::PlacedTarget;
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr int kSuperSamples = 4;  // per axis, at edges: coverage resolved to 1/16 of a pixel
+constexpr int kRegionPad = 2;     // px around a moving target's projected box
+// Noise: one plane of normal samples N(0, 1) stored as round(16 z) in int8 (|z| < 8), read
+// at a pseudo-random offset per frame and camera in [0, kNoiseMargin).
+constexpr std::size_t kNoiseMargin = std::size_t{1} << 20;
+constexpr double kNoiseScale = 16.0;
+
+std::uint64_t splitmix64(std::uint64_t& state) {
+  std::uint64_t z = (state += 0x9E3779B97F4A7C15ULL);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+  return z ^ (z >> 31);
+}
+
+// Deterministic standard normal samples (Box-Muller on splitmix64), the same on every platform.
+class NormalStream {
+ public:
+  explicit NormalStream(std::uint64_t seed) : state_(seed) {}
+  double next() {
+    if (has_spare_) {
+      has_spare_ = false;
+      return spare_;
+    }
+    const double u1 = (static_cast<double>(splitmix64(state_) >> 11) + 0.5) * 0x1.0p-53;
+    const double u2 = static_cast<double>(splitmix64(state_) >> 11) * 0x1.0p-53;
+    const double r = std::sqrt(-2.0 * std::log(u1));
+    spare_ = r * std::sin(2.0 * kPi * u2);
+    has_spare_ = true;
+    return r * std::cos(2.0 * kPi * u2);
+  }
+
+ private:
+  std::uint64_t state_;
+  double spare_ = 0.0;
+  bool has_spare_ = false;
+};
+
+std::uint64_t mix_seed(std::uint64_t seed, std::uint64_t a, std::uint64_t b) {
+  std::uint64_t state = seed ^ (a * 0xD1B54A32D192ED03ULL) ^ (b * 0x8CB92BA72F3D8DD7ULL);
+  return splitmix64(state);
+}
+
+// out = clamp(clean + round(z * sigma)), z = noise / 16, sigma = sigma16 / 16 (DN).
+void add_noise_u8(const std::uint8_t* clean, const std::uint8_t* sigma16, const std::int8_t* noise,
+                  std::uint8_t* out, std::size_t n) {
+  for (std::size_t i = 0; i < n; ++i) {
+    const int v = clean[i] + ((noise[i] * sigma16[i] + 128) >> 8);
+    out[i] = static_cast<std::uint8_t>(std::clamp(v, 0, 255));
+  }
+}
+
+void add_noise_u16(const std::uint16_t* clean, int sigma16, const std::int8_t* noise,
+                   std::uint16_t* out, std::size_t n, int max_count) {
+  for (std::size_t i = 0; i < n; ++i) {
+    const int v = clean[i] + ((noise[i] * sigma16 + 128) >> 8);
+    out[i] = static_cast<std::uint16_t>(std::clamp(v, 0, max_count));
+  }
+}
+
+// Linear value of a ray: visible DN per channel (B, G, R), or infrared signal counts in [0].
+using Linear = cv::Vec3f;
+
+struct CameraCache {
+  const camera::RigCamera* camera = nullptr;
+  bool visible = true;
+  cv::Size size;
+  int channels = 3;
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();  // world frame, m
+  Eigen::Matrix3d R_world_cam = Eigen::Matrix3d::Identity();
+  Eigen::Isometry3d T_cam_world = Eigen::Isometry3d::Identity();
+  double pixel_angle_rad = 1e-3;
+  cv::Mat rays;                  // CV_32FC3, unit rays in the world frame (NaN: no ray)
+  cv::Mat static_depth;          // CV_32FC1, m along the ray (inf: sky)
+  cv::Mat static_id;             // CV_16UC1
+  cv::Mat static_linear;         // CV_32FC3 (visible DN, before blur) or CV_32FC1 (infrared signal)
+  cv::Mat static_clean;          // CV_8UC3 or CV_16UC1: the noise-free image of the static scene
+  cv::Mat static_sigma;          // CV_8UC3: visible noise sigma x16 of static_clean
+  cv::Mat fpn_offset, fpn_gain;  // CV_32FC1, infrared
+};
+
+}  // namespace
+
+const char* to_string(Slot slot) {
+  switch (slot) {
+    case Slot::visible_left:
+      return "visible_left";
+    case Slot::visible_right:
+      return "visible_right";
+    case Slot::infrared_left:
+      return "infrared_left";
+    case Slot::infrared_right:
+      return "infrared_right";
+  }
+  return "unknown";
+}
+
+struct SimulatedRig::Impl {
+  camera::Rig rig;
+  Scene scene;
+  std::uint64_t seed = 0;
+  RenderOptions options;
+  std::unique_ptr<detail::World> world;
+  detail::VisibleExposure exposure;
+  detail::InfraredTransfer ir_transfer;
+  std::array<CameraCache, kSlotCount> cams;
+  std::vector<detail::PlacedTarget> static_targets;
+  std::vector<std::vector<Eigen::Vector3d>> hull_points;  // per target, local frame
+  std::vector<std::int8_t> noise_plane;
+  std::array<std::uint8_t, 256> sigma_lut{};  // visible: sigma x16 per clean DN
+  int ir_sigma16 = 0;
+  Eigen::Isometry3d T_visible_left_world = Eigen::Isometry3d::Identity();
+  float sky_counts = 0.0f;
+
+  Impl(camera::Rig r, Scene s, std::uint64_t sd, RenderOptions opt)
+      : rig(std::move(r)),
+        scene(std::move(s)),
+        seed(sd),
+        options(opt),
+        exposure(scene.visible),
+        ir_transfer(scene.infrared) {}
+
+  int max_count(const CameraCache& c) const { return (1 << c.camera->bit_depth) - 1; }
+
+  bool is_moving_id(std::uint16_t id) const {
+    if (id < detail::kFirstTargetId || id == detail::kNoRayId) return false;
+    const std::size_t i = id - detail::kFirstTargetId;
+    return i < world->targets().size() && world->targets()[i].spec.moving();
+  }
+
+  Linear radiance(const CameraCache& c, const Hit& hit, const Eigen::Vector3d& d) const {
+    if (hit.texture < 0) {  // sky
+      if (!c.visible) return {sky_counts, 0.0f, 0.0f};
+      const Eigen::Vector3f sky = (scene.visible.sky_colour * exposure.white_dn).cast<float>();
+      return {sky.x(), sky.y(), sky.z()};
+    }
+    const detail::SurfaceSample s = world->shade(hit, d, c.pixel_angle_rad);
+    if (!c.visible) return {ir_transfer.counts(s.temperature_c), 0.0f, 0.0f};
+    const float k = detail::World::lighting(hit.normal) * static_cast<float>(exposure.white_dn);
+    return {k * s.reflectance_bgr.x(), k * s.reflectance_bgr.y(), k * s.reflectance_bgr.z()};
+  }
+
+  // Everything along one ray: the static scene, then the given moving targets.
+  Linear trace(const CameraCache& c, const Eigen::Vector3d& d,
+               const std::vector<PlacedTarget>* moving, Hit& hit) const {
+    world->trace_background(c.centre, d, hit);
+    detail::World::trace_targets(static_targets, c.centre, d, hit);
+    if (moving != nullptr) detail::World::trace_targets(*moving, c.centre, d, hit);
+    return radiance(c, hit, d);
+  }
+
+  // Mean over kSuperSamples^2 rays spread over the pixel's area.
+  Linear supersample(const CameraCache& c, int x, int y,
+                     const std::vector<PlacedTarget>* moving) const {
+    Linear sum(0.0f, 0.0f, 0.0f);
+    int count = 0;
+    for (int j = 0; j < kSuperSamples; ++j) {
+      for (int i = 0; i < kSuperSamples; ++i) {
+        const Eigen::Vector2d px(x - 0.5 + (i + 0.5) / kSuperSamples,
+                                 y - 0.5 + (j + 0.5) / kSuperSamples);
+        Eigen::Vector3d ray;
+        if (!c.camera->model->unproject(px, ray)) continue;
+        Hit hit;
+        sum += trace(c, c.R_world_cam * ray.normalized(), moving, hit);
+        ++count;
+      }
+    }
+    return count > 0 ? sum * (1.0f / static_cast<float>(count)) : sum;
+  }
+
+  void build_camera(Slot slot, const camera::RigCamera& cam) {
+    CameraCache& c = cams[static_cast<int>(slot)];
+    c.camera = &cam;
+    c.visible = slot == Slot::visible_left || slot == Slot::visible_right;
+    c.size = cam.model->image_size();
+    c.channels = c.visible ? 3 : 1;
+    c.centre = cam.T_ref_cam.translation();
+    c.R_world_cam = cam.T_ref_cam.linear();
+    c.T_cam_world = cam.T_ref_cam.inverse();
+    {  // angle of one pixel at the image centre, for texture level of detail
+      Eigen::Vector3d a, b;
+      const Eigen::Vector2d mid(c.size.width / 2.0, c.size.height / 2.0);
+      if (cam.model->unproject(mid, a) && cam.model->unproject(mid + Eigen::Vector2d(1, 0), b))
+        c.pixel_angle_rad = std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0));
+    }
+    const int linear_type = c.visible ? CV_32FC3 : CV_32FC1;
+    c.rays.create(c.size, CV_32FC3);
+    c.static_depth.create(c.size, CV_32FC1);
+    c.static_id.create(c.size, CV_16UC1);
+    c.static_linear.create(c.size, linear_type);
+    cv::parallel_for_(cv::Range(0, c.size.height), [&](const cv::Range& rows) {
+      for (int y = rows.start; y < rows.end; ++y) {
+        for (int x = 0; x < c.size.width; ++x) {
+          Eigen::Vector3d ray;
+          auto& r = c.rays.at<cv::Vec3f>(y, x);
+          if (!cam.model->unproject(Eigen::Vector2d(x, y), ray)) {
+            r = cv::Vec3f(NAN, NAN, NAN);
+            c.static_depth.at<float>(y, x) = 0.0f;
+            c.static_id.at<std::uint16_t>(y, x) = detail::kNoRayId;
+            set_linear(c.static_linear, y, x, Linear(0.0f, 0.0f, 0.0f));
+            continue;
+          }
+          const Eigen::Vector3d d = c.R_world_cam * ray.normalized();
+          r = cv::Vec3f(static_cast<float>(d.x()), static_cast<float>(d.y()),
+                        static_cast<float>(d.z()));
+          Hit hit;
+          set_linear(c.static_linear, y, x, trace(c, d, nullptr, hit));
+          c.static_depth.at<float>(y, x) = static_cast<float>(hit.t);
+          c.static_id.at<std::uint16_t>(y, x) = hit.id;
+        }
+      }
+    });
+    // Anti-aliasing: supersample the pixels on an edge between two things.
+    cv::parallel_for_(cv::Range(0, c.size.height), [&](const cv::Range& rows) {
+      for (int y = rows.start; y < rows.end; ++y) {
+        for (int x = 0; x < c.size.width; ++x) {
+          if (on_edge(c.static_id, y, x, c.static_id, cv::Point(0, 0)))
+            set_linear(c.static_linear, y, x, supersample(c, x, y, nullptr));
+        }
+      }
+    });
+    if (!c.visible) build_fixed_pattern(slot, c);
+    c.static_clean.create(c.size, c.visible ? CV_8UC3 : CV_16UC1);
+    finish(c, c.static_linear, cv::Rect(cv::Point(0, 0), c.size), c.static_clean, true);
+    if (c.visible) {
+      c.static_sigma.create(c.size, CV_8UC3);
+      cv::LUT(c.static_clean, sigma_lut, c.static_sigma);
+    }
+  }
+
+  static void set_linear(cv::Mat& m, int y, int x, const Linear& v) {
+    if (m.channels() == 3) {
+      m.at<cv::Vec3f>(y, x) = v;
+    } else {
+      m.at<float>(y, x) = v[0];
+    }
+  }
+  static Linear get_linear(const cv::Mat& m, int y, int x) {
+    if (m.channels() == 3) return m.at<cv::Vec3f>(y, x);
+    return {m.at<float>(y, x), 0.0f, 0.0f};
+  }
+
+  // True when pixel (y, x) of `ids` (whose top-left is `origin` in the image) has a 4-neighbour
+  // with another id; neighbours outside `ids` are read from the full-image `static_ids`.
+  static bool on_edge(const cv::Mat& ids, int y, int x, const cv::Mat& static_ids,
+                      cv::Point origin) {
+    const std::uint16_t id = ids.at<std::uint16_t>(y, x);
+    if (id == detail::kNoRayId) return false;
+    constexpr int dx[4] = {1, -1, 0, 0}, dy[4] = {0, 0, 1, -1};
+    for (int k = 0; k < 4; ++k) {
+      const int nx = x + dx[k], ny = y + dy[k];
+      std::uint16_t other = id;
+      if (nx >= 0 && ny >= 0 && nx < ids.cols && ny < ids.rows) {
+        other = ids.at<std::uint16_t>(ny, nx);
+      } else {
+        const int gx = nx + origin.x, gy = ny + origin.y;
+        if (gx >= 0 && gy >= 0 && gx < static_ids.cols && gy < static_ids.rows)
+          other = static_ids.at<std::uint16_t>(gy, gx);
+      }
+      if (other != id && other != detail::kNoRayId) return true;
+    }
+    return false;
+  }
+
+  void build_fixed_pattern(Slot slot, CameraCache& c) {
+    c.fpn_offset.create(c.size, CV_32FC1);
+    c.fpn_gain.create(c.size, CV_32FC1);
+    if (!options.fixed_pattern) {
+      c.fpn_offset.setTo(0.0f);
+      c.fpn_gain.setTo(1.0f);
+      return;
+    }
+    NormalStream normal(mix_seed(seed, 0xF1, static_cast<std::uint64_t>(slot)));
+    std::vector<double> column(static_cast<std::size_t>(c.size.width));
+    for (double& v : column) v = scene.infrared.fpn_column_counts * normal.next();
+    for (int y = 0; y < c.size.height; ++y) {
+      for (int x = 0; x < c.size.width; ++x) {
+        c.fpn_offset.at<float>(y, x) = static_cast<float>(
+            column[static_cast<std::size_t>(x)] + scene.infrared.fpn_offset_counts * normal.next());
+        c.fpn_gain.at<float>(y, x) =
+            static_cast<float>(1.0 + scene.infrared.fpn_gain * normal.next());
+      }
+    }
+  }
+
+  // Linear values of `rect` (image coordinates; `linear` and `clean` hold just that rectangle)
+  // -> the noise-free raw image; `blur` applies the visible optical blur first.
+  void finish(const CameraCache& c, const cv::Mat& linear, cv::Rect rect, cv::Mat& clean,
+              bool blur) const {
+    if (c.visible) {
+      const double sigma = scene.visible.blur_sigma_px;
+      if (blur && sigma > 0.0) {
+        cv::Mat blurred;
+        cv::GaussianBlur(linear, blurred, cv::Size(0, 0), sigma, sigma, cv::BORDER_REPLICATE);
+        blurred.convertTo(clean, CV_8UC3);
+      } else {
+        linear.convertTo(clean, CV_8UC3);
+      }
+      return;
+    }
+    const float ref = static_cast<float>(scene.infrared.counts_at_20c);
+    const auto top = static_cast<float>(max_count(c));
+    for (int y = 0; y < rect.height; ++y) {
+      const float* in = linear.ptr<float>(y);
+      const float* offset = c.fpn_offset.ptr<float>(rect.y + y) + rect.x;
+      const float* gain = c.fpn_gain.ptr<float>(rect.y + y) + rect.x;
+      auto* out = clean.ptr<std::uint16_t>(y);
+      for (int x = 0; x < rect.width; ++x) {
+        const float counts = ref + gain[x] * (in[x] - ref) + offset[x];
+        out[x] = static_cast<std::uint16_t>(std::lround(std::clamp(counts, 0.0f, top)));
+      }
+    }
+  }
+
+  std::size_t noise_offset(std::int64_t frame, Slot slot) const {
+    return mix_seed(seed, static_cast<std::uint64_t>(frame), 1 + static_cast<std::uint64_t>(slot)) %
+           kNoiseMargin;
+  }
+
+  // Noise over rows of `clean` (a rect of the image, or the whole image) into `out` (the image).
+  void add_noise(const CameraCache& c, const cv::Mat& clean, const cv::Mat* sigma, cv::Rect rect,
+                 std::size_t offset, cv::Mat& out) const {
+    const std::size_t width_elems = static_cast<std::size_t>(rect.width) * c.channels;
+    std::vector<std::uint8_t> sigma_row;
+    for (int y = 0; y < rect.height; ++y) {
+      const std::size_t flat =
+          (static_cast<std::size_t>(rect.y + y) * c.size.width + rect.x) * c.channels;
+      const std::int8_t* noise = noise_plane.data() + offset + flat;
+      if (c.visible) {
+        const std::uint8_t* in = clean.ptr<std::uint8_t>(y);
+        std::uint8_t* dst = out.ptr<std::uint8_t>(rect.y + y) + rect.x * 3;
+        if (!options.temporal_noise) {
+          std::copy(in, in + width_elems, dst);
+          continue;
+        }
+        const std::uint8_t* s = nullptr;
+        if (sigma != nullptr) {
+          s = sigma->ptr<std::uint8_t>(y);
+        } else {
+          sigma_row.resize(width_elems);
+          for (std::size_t i = 0; i < width_elems; ++i) sigma_row[i] = sigma_lut[in[i]];
+          s = sigma_row.data();
+        }
+        add_noise_u8(in, s, noise, dst, width_elems);
+      } else {
+        const std::uint16_t* in = clean.ptr<std::uint16_t>(y);
+        std::uint16_t* dst = out.ptr<std::uint16_t>(rect.y + y) + rect.x;
+        if (!options.temporal_noise) {
+          std::copy(in, in + width_elems, dst);
+          continue;
+        }
+        add_noise_u16(in, ir_sigma16, noise, dst, width_elems, max_count(c));
+      }
+    }
+  }
+
+  std::vector<Eigen::Vector3d> hull_of(const detail::CompiledTarget& t) const {
+    // Corners of the local bounding box and 4 points along each edge: the projected extent of
+    // a box whose edges the lens bends.
+    std::vector<Eigen::Vector3d> pts;
+    const Eigen::Vector3d lo = t.bound_lo, hi = t.bound_hi;
+    for (int i = 0; i <= 5; ++i) {
+      for (int j = 0; j <= 5; ++j) {
+        for (int k = 0; k <= 5; ++k) {
+          const int ends = (i % 5 == 0) + (j % 5 == 0) + (k % 5 == 0);
+          if (ends < 2) continue;  // corners and edges only
+          const Eigen::Vector3d f(i / 5.0, j / 5.0, k / 5.0);
+          pts.push_back(lo + (hi - lo).cwiseProduct(f));
+        }
+      }
+    }
+    return pts;
+  }
+
+  // The image rectangle a placed target may cover in camera c (with a margin), or an empty one.
+  cv::Rect target_region(const CameraCache& c, const PlacedTarget& pt) const {
+    const std::size_t index = pt.target->id - detail::kFirstTargetId;
+    double x0 = std::numeric_limits<double>::infinity(), y0 = x0, x1 = -x0, y1 = -x0;
+    bool any_invalid = false, any_valid = false;
+    for (const Eigen::Vector3d& p : hull_points[index]) {
+      const Eigen::Vector3d world_p = pt.foot + pt.target->R_world_local * p;
+      Eigen::Vector2d px;
+      if (!c.camera->model->project(c.T_cam_world * world_p, px)) {
+        any_invalid = true;
+        continue;
+      }
+      any_valid = true;
+      x0 = std::min(x0, px.x());
+      y0 = std::min(y0, px.y());
+      x1 = std::max(x1, px.x());
+      y1 = std::max(y1, px.y());
+    }
+    const cv::Rect image(cv::Point(0, 0), c.size);
+    if (!any_valid) return {};
+    if (any_invalid) return image;  // partly beyond the lens's field: take the whole image
+    const int margin = kRegionPad + blur_radius(c);
+    const cv::Rect box(cv::Point(static_cast<int>(std::floor(x0)) - margin,
+                                 static_cast<int>(std::floor(y0)) - margin),
+                       cv::Point(static_cast<int>(std::ceil(x1)) + margin + 1,
+                                 static_cast<int>(std::ceil(y1)) + margin + 1));
+    return box & image;
+  }
+
+  int blur_radius(const CameraCache& c) const {
+    if (!c.visible || scene.visible.blur_sigma_px <= 0.0) return 0;
+    return static_cast<int>(std::ceil(4.0 * scene.visible.blur_sigma_px));
+  }
+
+  // Re-renders `out_rect` of camera c with the moving targets and writes it (with noise) to out.
+  void render_region(const CameraCache& c, cv::Rect out_rect,
+                     const std::vector<PlacedTarget>& moving, std::size_t offset,
+                     cv::Mat& out) const {
+    const int rb = blur_radius(c);
+    const cv::Rect image(cv::Point(0, 0), c.size);
+    const cv::Rect rr = cv::Rect(out_rect.x - rb, out_rect.y - rb, out_rect.width + 2 * rb,
+                                 out_rect.height + 2 * rb) &
+                        image;
+    cv::Mat linear(rr.size(), c.static_linear.type());
+    cv::Mat ids(rr.size(), CV_16UC1);
+    for (int y = 0; y < rr.height; ++y) {
+      for (int x = 0; x < rr.width; ++x) {
+        const int gx = rr.x + x, gy = rr.y + y;
+        const std::uint16_t static_id = c.static_id.at<std::uint16_t>(gy, gx);
+        ids.at<std::uint16_t>(y, x) = static_id;
+        set_linear(linear, y, x, get_linear(c.static_linear, gy, gx));
+        if (static_id == detail::kNoRayId) continue;
+        const cv::Vec3f& r = c.rays.at<cv::Vec3f>(gy, gx);
+        const Eigen::Vector3d d(r[0], r[1], r[2]);
+        Hit hit;
+        hit.t = c.static_depth.at<float>(gy, gx);
+        detail::World::trace_targets(moving, c.centre, d, hit);
+        if (hit.texture < 0) continue;  // no moving target in front of the static scene
+        ids.at<std::uint16_t>(y, x) = hit.id;
+        set_linear(linear, y, x, radiance(c, hit, d));
+      }
+    }
+    for (int y = 0; y < rr.height; ++y) {
+      for (int x = 0; x < rr.width; ++x) {
+        if (!on_edge(ids, y, x, c.static_id, rr.tl())) continue;
+        // Only edges that involve a moving target changed; static edges are already smooth.
+        const std::uint16_t id = ids.at<std::uint16_t>(y, x);
+        bool involves_moving = is_moving_id(id);
+        for (const cv::Point n :
+             {cv::Point(1, 0), cv::Point(-1, 0), cv::Point(0, 1), cv::Point(0, -1)}) {
+          const int nx = x + n.x, ny = y + n.y;
+          if (nx >= 0 && ny >= 0 && nx < rr.width && ny < rr.height)
+            involves_moving = involves_moving || is_moving_id(ids.at<std::uint16_t>(ny, nx));
+        }
+        if (involves_moving) set_linear(linear, y, x, supersample(c, rr.x + x, rr.y + y, &moving));
+      }
+    }
+    cv::Mat finished = linear;
+    if (rb > 0) {
+      cv::GaussianBlur(linear, finished, cv::Size(0, 0), scene.visible.blur_sigma_px,
+                       scene.visible.blur_sigma_px, cv::BORDER_REPLICATE);
+    }
+    const cv::Rect inner = out_rect - rr.tl();
+    cv::Mat clean(out_rect.size(), c.visible ? CV_8UC3 : CV_16UC1);
+    finish(c, finished(inner), out_rect, clean, false);
+    add_noise(c, clean, nullptr, out_rect, offset, out);
+  }
+
+  std::vector<cv::Rect> regions(const CameraCache& c,
+                                const std::vector<PlacedTarget>& moving) const {
+    std::vector<cv::Rect> out;
+    for (const PlacedTarget& pt : moving) {
+      const cv::Rect r = target_region(c, pt);
+      if (r.area() > 0) out.push_back(r);
+    }
+    return out;
+  }
+};
+
+SimulatedRig::SimulatedRig(camera::Rig rig, Scene scene, std::uint64_t seed,
+                           RenderOptions options) {
+  validate(scene);
+  impl_ = std::make_unique<Impl>(std::move(rig), std::move(scene), seed, options);
+  Impl& m = *impl_;
+  const std::array<std::string, kSlotCount> names = {m.rig.visible.left, m.rig.visible.right,
+                                                     m.rig.infrared.left, m.rig.infrared.right};
+  for (const std::string& name : names) {
+    if (!m.rig.has_camera(name))
+      throw std::invalid_argument("simulated rig: the rig has no camera '" + name + "'");
+    if (!m.rig.camera(name).model)
+      throw std::invalid_argument("simulated rig: camera '" + name + "' has no model");
+  }
+  for (int i = 2; i < 4; ++i) {
+    const int bits = m.rig.camera(names[static_cast<std::size_t>(i)]).bit_depth;
+    if (bits < 1 || bits > 16)
+      throw std::invalid_argument("simulated rig: infrared bit_depth must be 1..16");
+  }
+  m.world = std::make_unique<detail::World>(m.scene);
+  m.static_targets = m.world->place(false, 0.0);
+  for (const auto& t : m.world->targets()) m.hull_points.push_back(m.hull_of(t));
+  m.T_visible_left_world = m.rig.camera(m.rig.visible.left).T_ref_cam.inverse();
+  m.sky_counts = m.ir_transfer.counts(m.scene.infrared.sky_c);
+  for (int v = 0; v < 256; ++v) {
+    m.sigma_lut[static_cast<std::size_t>(v)] = static_cast<std::uint8_t>(
+        std::min(255L, std::lround(kNoiseScale * m.exposure.sigma_dn(v))));
+  }
+  m.ir_sigma16 = static_cast<int>(
+      std::lround(kNoiseScale * m.scene.infrared.netd_k * m.scene.infrared.counts_per_k));
+  // The noise plane: long enough for the largest image at any offset.
+  std::size_t largest = 0;
+  for (int i = 0; i < kSlotCount; ++i) {
+    const cv::Size size = m.rig.camera(names[static_cast<std::size_t>(i)]).model->image_size();
+    largest = std::max(largest, static_cast<std::size_t>(size.area()) * (i < 2 ? 3 : 1));
+  }
+  m.noise_plane.resize(largest + kNoiseMargin);
+  NormalStream normal(mix_seed(seed, 0xA0, 0));
+  for (std::int8_t& v : m.noise_plane) {
+    v = static_cast<std::int8_t>(std::clamp(std::lround(kNoiseScale * normal.next()), -127L, 127L));
+  }
+  for (int i = 0; i < kSlotCount; ++i)
+    m.build_camera(static_cast<Slot>(i), m.rig.camera(names[static_cast<std::size_t>(i)]));
+}
+
+SimulatedRig::~SimulatedRig() = default;
+SimulatedRig::SimulatedRig(SimulatedRig&&) noexcept = default;
+SimulatedRig& SimulatedRig::operator=(SimulatedRig&&) noexcept = default;
+
+const camera::Rig& SimulatedRig::rig() const { return impl_->rig; }
+const Scene& SimulatedRig::scene() const { return impl_->scene; }
+const camera::RigCamera& SimulatedRig::camera(Slot slot) const {
+  return *impl_->cams[static_cast<int>(slot)].camera;
+}
+
+FrameSet SimulatedRig::allocate() const {
+  FrameSet out;
+  for (int i = 0; i < kSlotCount; ++i) {
+    const CameraCache& c = impl_->cams[static_cast<std::size_t>(i)];
+    out.images[static_cast<std::size_t>(i)].create(c.size, c.visible ? CV_8UC3 : CV_16UC1);
+  }
+  return out;
+}
+
+void SimulatedRig::render(std::int64_t frame_index, FrameSet& out) const {
+  const Impl& m = *impl_;
+  for (int i = 0; i < kSlotCount; ++i) {
+    const CameraCache& c = m.cams[static_cast<std::size_t>(i)];
+    const cv::Mat& img = out.images[static_cast<std::size_t>(i)];
+    const int type = c.visible ? CV_8UC3 : CV_16UC1;
+    if (img.size() != c.size || img.type() != type || !img.isContinuous()) {
+      throw std::invalid_argument(
+          std::string("simulated rig: buffer ") + to_string(static_cast<Slot>(i)) +
+          " must be a continuous " + std::to_string(c.size.width) + "x" +
+          std::to_string(c.size.height) + (c.visible ? " CV_8UC3" : " CV_16UC1") + " image");
+    }
+  }
+  const double t_s = static_cast<double>(frame_index) / m.scene.frame_rate_hz;
+  const std::vector<PlacedTarget> moving = m.world->place(true, t_s);
+  for (int i = 0; i < kSlotCount; ++i) {
+    const CameraCache& c = m.cams[static_cast<std::size_t>(i)];
+    cv::Mat& img = out.images[static_cast<std::size_t>(i)];
+    const std::size_t offset = m.noise_offset(frame_index, static_cast<Slot>(i));
+    const cv::Rect whole(cv::Point(0, 0), c.size);
+    m.add_noise(c, c.static_clean, c.visible ? &c.static_sigma : nullptr, whole, offset, img);
+    for (const cv::Rect& r : m.regions(c, moving)) m.render_region(c, r, moving, offset, img);
+  }
+}
+
+std::int64_t SimulatedRig::dynamic_pixel_count(std::int64_t frame_index) const {
+  const Impl& m = *impl_;
+  const std::vector<PlacedTarget> moving =
+      m.world->place(true, static_cast<double>(frame_index) / m.scene.frame_rate_hz);
+  std::int64_t total = 0;
+  for (const CameraCache& c : m.cams) {
+    for (const cv::Rect& r : m.regions(c, moving)) total += r.area();
+  }
+  return total;
+}
+
+std::vector<TargetTruth> SimulatedRig::truth(std::int64_t frame_index) const {
+  const Impl& m = *impl_;
+  const double t_s = static_cast<double>(frame_index) / m.scene.frame_rate_hz;
+  std::vector<TargetTruth> out;
+  for (const detail::CompiledTarget& t : m.world->targets()) {
+    TargetTruth truth;
+    truth.id = t.spec.id;
+    truth.cls = t.spec.cls;
+    const Eigen::Vector3d foot = foot_position(m.scene, t.spec, t_s);
+    truth.position_m = m.T_visible_left_world * centre_position(m.scene, t.spec, t_s);
+    truth.distance_m = truth.position_m.norm();
+    for (int i = 0; i < kSlotCount; ++i) {
+      const CameraCache& c = m.cams[static_cast<std::size_t>(i)];
+      TruthBox box{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
+                   -std::numeric_limits<double>::infinity(),
+                   -std::numeric_limits<double>::infinity()};
+      for (const Eigen::Vector3d& p : t.silhouette_points) {
+        Eigen::Vector2d px;
+        if (!c.camera->model->project(c.T_cam_world * (foot + t.R_world_local * p), px)) continue;
+        box.x_min = std::min(box.x_min, px.x());
+        box.y_min = std::min(box.y_min, px.y());
+        box.x_max = std::max(box.x_max, px.x());
+        box.y_max = std::max(box.y_max, px.y());
+      }
+      const double w = c.size.width - 0.5, h = c.size.height - 0.5;
+      box.x_min = std::max(box.x_min, -0.5);
+      box.y_min = std::max(box.y_min, -0.5);
+      box.x_max = std::min(box.x_max, w);
+      box.y_max = std::min(box.y_max, h);
+      if (box.x_min < box.x_max && box.y_min < box.y_max)
+        truth.boxes[static_cast<std::size_t>(i)] = box;
+    }
+    out.push_back(std::move(truth));
+  }
+  return out;
+}
+
+}  // namespace thermovis::sim
