@@ -1,7 +1,7 @@
 // The other process of the transport integration tests and of the thermovis-tap test:
 //   transport_peer publish-frames   --domain D --count N --period-ms P --deadline-ms T --result F
 //   transport_peer subscribe-frames --domain D --count N --deadline-ms T --result F
-//   transport_peer publish-ranges   --domain D --count N [--readers R]
+//   transport_peer publish-ranges   --domain D --count N --period-ms P [--readers R]
 // Frames are VisibleStereoFrame (2 x 6.2 MB) filled with frame_pattern.hpp and sent through the
 // loaned data-sharing path. Each frame process writes a JSON result file (where its samples
 // lived in memory, integrity, deadline counters) that the test reads after both exited.
@@ -19,6 +19,7 @@
 #include <nlohmann/json.hpp>
 
 #include "frame_pattern.hpp"
+#include "range_pattern.hpp"
 #include "thermovis/transport/clock.hpp"
 #include "thermovis/transport/participant.hpp"
 #include "thermovis/transport/reader.hpp"
@@ -137,26 +138,29 @@ int subscribe_frames(const Options& o) {
 thermovis::RangeArray range_sample(std::uint64_t seq) {
   thermovis::RangeArray ranges;
   ranges.frame_seq(seq);
-  ranges.capture_time_ns(1'700'000'000'000'000'000 + static_cast<std::int64_t>(seq) * 20'000'000);
-  for (std::uint32_t t = 0; t < 2; ++t) {
+  ranges.capture_time_ns(thermovis::test::expected_capture_time_ns(seq));
+  for (int t = 0; t < thermovis::test::kTargetsPerFrame; ++t) {
+    const auto e = thermovis::test::expected_target(seq, t);
     thermovis::TargetRange target;
-    target.target_id(t + 1);
-    target.label(t == 0 ? "person" : "vehicle");
-    target.distance_m(10.0f * static_cast<float>(t + 1) + 0.5f * static_cast<float>(seq));
-    target.sigma_m(0.25f);
-    target.x_m(-1.5f + 3.0f * static_cast<float>(t));
-    target.y_m(0.5f);
-    target.z_m(target.distance_m());
-    target.box().x(100.0f * static_cast<float>(t + 1));
-    target.box().y(200.0f);
-    target.box().width(40.0f);
-    target.box().height(90.0f);
-    target.point_count(12 + t);
+    target.target_id(e.target_id);
+    target.label(e.label);
+    target.distance_m(e.distance_m);
+    target.sigma_m(e.sigma_m);
+    target.x_m(e.x_m);
+    target.y_m(e.y_m);
+    target.z_m(e.z_m);
+    target.box().x(e.box_x);
+    target.box().y(e.box_y);
+    target.box().width(e.box_width);
+    target.box().height(e.box_height);
+    target.point_count(e.point_count);
     ranges.targets().push_back(target);
   }
   return ranges;
 }
 
+// Publishes RangeArray samples every period until `count` were sent or every reader has left
+// (thermovis-tap exits after the samples it was asked for).
 int publish_ranges(const Options& o) {
   tt::Participant participant(loopback(o.domain, "transport_peer ranges"));
   tt::Writer<thermovis::RangeArray> writer(participant, tt::topics::kRanges, tt::event_topic_qos());
@@ -164,14 +168,9 @@ int publish_ranges(const Options& o) {
                                std::chrono::seconds(o.timeout_s))) {
     throw std::runtime_error("no reader of thermovis/ranges matched within the timeout");
   }
-  for (int i = 0; i < o.count; ++i) {
+  for (int i = 0; i < o.count && writer.counters().matched > 0; ++i) {
     writer.write(range_sample(static_cast<std::uint64_t>(i + 1)));
     std::this_thread::sleep_for(std::chrono::milliseconds(o.period_ms));
-  }
-  writer.native().wait_for_acknowledgments(eprosima::fastrtps::Duration_t(o.timeout_s, 0));
-  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(o.timeout_s);
-  while (writer.counters().matched > 0 && std::chrono::steady_clock::now() < give_up) {
-    std::this_thread::sleep_for(10ms);
   }
   return 0;
 }

@@ -1,0 +1,248 @@
+#include "tap.hpp"
+
+#include <dds/dds.h>
+
+#include <fstream>
+#include <functional>
+#include <map>
+#include <ostream>
+#include <stdexcept>
+
+#include <nlohmann/json.hpp>
+
+#include "thermovis/common.h"
+#include "thermovis/health.h"
+#include "thermovis/perception.h"
+
+namespace thermovis::tap {
+
+namespace {
+
+using nlohmann::json;
+
+json to_json(const thermovis_Box2D& box) {
+  return {{"x", box.x}, {"y", box.y}, {"width", box.width}, {"height", box.height}};
+}
+
+json to_json(const thermovis_PipelineStamps& stamps) {
+  json out = json::array();
+  for (std::uint32_t i = 0; i < stamps.count && i < thermovis_MAX_STAGE_STAMPS; ++i) {
+    const auto& s = stamps.stamps[i];
+    out.push_back({{"stage", s.stage}, {"start_ns", s.start_ns}, {"end_ns", s.end_ns}});
+  }
+  return out;
+}
+
+json range_array(const void* sample) {
+  const auto& r = *static_cast<const thermovis_RangeArray*>(sample);
+  json targets = json::array();
+  for (std::uint32_t i = 0; i < r.targets._length; ++i) {
+    const auto& t = r.targets._buffer[i];
+    targets.push_back({{"target_id", t.target_id},
+                       {"label", t.label},
+                       {"distance_m", t.distance_m},
+                       {"sigma_m", t.sigma_m},
+                       {"x_m", t.x_m},
+                       {"y_m", t.y_m},
+                       {"z_m", t.z_m},
+                       {"box", to_json(t.box)},
+                       {"point_count", t.point_count}});
+  }
+  return {{"frame_seq", r.frame_seq},
+          {"capture_time_ns", r.capture_time_ns},
+          {"targets", targets},
+          {"stamps", to_json(r.stamps)}};
+}
+
+json detection_array(const void* sample) {
+  const auto& d = *static_cast<const thermovis_DetectionArray*>(sample);
+  json detections = json::array();
+  for (std::uint32_t i = 0; i < d.detections._length; ++i) {
+    const auto& t = d.detections._buffer[i];
+    detections.push_back({{"target_id", t.target_id},
+                          {"label", t.label},
+                          {"score", t.score},
+                          {"box", to_json(t.box)}});
+  }
+  return {{"frame_seq", d.frame_seq},
+          {"capture_time_ns", d.capture_time_ns},
+          {"detections", detections},
+          {"stamps", to_json(d.stamps)}};
+}
+
+json match_array(const void* sample) {
+  const auto& m = *static_cast<const thermovis_MatchArray*>(sample);
+  json targets = json::array();
+  for (std::uint32_t i = 0; i < m.targets._length; ++i) {
+    const auto& t = m.targets._buffer[i];
+    json points = json::array();
+    for (std::uint32_t k = 0; k < t.points._length; ++k) {
+      const auto& p = t.points._buffer[k];
+      points.push_back({p.left_x, p.left_y, p.right_x, p.right_y});
+    }
+    targets.push_back({{"target_id", t.target_id},
+                       {"label", t.label},
+                       {"box", to_json(t.box)},
+                       {"points", points}});
+  }
+  return {{"frame_seq", m.frame_seq},
+          {"capture_time_ns", m.capture_time_ns},
+          {"targets", targets},
+          {"stamps", to_json(m.stamps)}};
+}
+
+json frame_timing(const void* sample) {
+  const auto& t = *static_cast<const thermovis_FrameTiming*>(sample);
+  return {{"frame_seq", t.frame_seq},
+          {"capture_time_ns", t.capture_time_ns},
+          {"output_time_ns", t.output_time_ns},
+          {"stamps", to_json(t.stamps)}};
+}
+
+json health(const void* sample) {
+  const auto& h = *static_cast<const thermovis_Health*>(sample);
+  static const char* states[] = {"starting", "ok", "degraded", "failed", "stopping"};
+  json topics = json::array();
+  for (std::uint32_t i = 0; i < h.topics._length; ++i) {
+    const auto& t = h.topics._buffer[i];
+    topics.push_back({{"topic", t.topic},
+                      {"samples", t.samples},
+                      {"requested_deadline_missed", t.requested_deadline_missed},
+                      {"offered_deadline_missed", t.offered_deadline_missed}});
+  }
+  return {{"service", h.service},
+          {"state", h.state <= thermovis_HEALTH_STOPPING ? states[h.state] : "unknown"},
+          {"time_ns", h.time_ns},
+          {"frames_processed", h.frames_processed},
+          {"errors", h.errors},
+          {"message", h.message},
+          {"topics", topics}};
+}
+
+struct TypeInfo {
+  const dds_topic_descriptor_t* descriptor;
+  std::function<json(const void*)> to_json;
+  bool state = false;  // health-like: TRANSIENT_LOCAL, so a late tap sees the last states
+};
+
+const std::map<std::string, TypeInfo>& types() {
+  static const std::map<std::string, TypeInfo> table = {
+      {"thermovis::RangeArray", {&thermovis_RangeArray_desc, range_array}},
+      {"thermovis::DetectionArray", {&thermovis_DetectionArray_desc, detection_array}},
+      {"thermovis::MatchArray", {&thermovis_MatchArray_desc, match_array}},
+      {"thermovis::FrameTiming", {&thermovis_FrameTiming_desc, frame_timing}},
+      {"thermovis::Health", {&thermovis_Health_desc, health, true}},
+  };
+  return table;
+}
+
+// The pipeline's topics (common/transport topics.hpp) that carry small, tappable types.
+const std::map<std::string, std::string>& topic_types() {
+  static const std::map<std::string, std::string> table = {
+      {"thermovis/ranges", "thermovis::RangeArray"},
+      {"thermovis/detections", "thermovis::DetectionArray"},
+      {"thermovis/matches", "thermovis::MatchArray"},
+      {"thermovis/timing", "thermovis::FrameTiming"},
+      {"thermovis/health", "thermovis::Health"},
+  };
+  return table;
+}
+
+std::string join(const std::vector<std::string>& names) {
+  std::string out;
+  for (const auto& n : names) out += (out.empty() ? "" : ", ") + n;
+  return out;
+}
+
+// Owns a DDS entity (deleting a participant deletes everything in it).
+struct Entity {
+  dds_entity_t handle;
+  explicit Entity(dds_entity_t h, const char* what) : handle(h) {
+    if (h < 0) throw std::runtime_error(std::string(what) + ": " + dds_strretcode(h));
+  }
+  ~Entity() { dds_delete(handle); }
+  Entity(const Entity&) = delete;
+  Entity& operator=(const Entity&) = delete;
+};
+
+}  // namespace
+
+std::vector<std::string> known_topics() {
+  std::vector<std::string> names;
+  for (const auto& [name, type] : topic_types()) names.push_back(name);
+  return names;
+}
+
+std::vector<std::string> known_types() {
+  std::vector<std::string> names;
+  for (const auto& [name, info] : types()) names.push_back(name);
+  return names;
+}
+
+std::uint64_t run_tap(const TapOptions& options, const std::atomic<bool>& stop, std::ostream& out) {
+  std::string type_name = options.type;
+  if (type_name.empty()) {
+    const auto it = topic_types().find(options.topic);
+    if (it == topic_types().end()) {
+      throw std::runtime_error("unknown topic '" + options.topic +
+                               "' (known: " + join(known_topics()) + "; or give --type)");
+    }
+    type_name = it->second;
+  }
+  const auto type_it = types().find(type_name);
+  if (type_it == types().end()) {
+    throw std::runtime_error("unknown type '" + type_name + "' (known: " + join(known_types()) +
+                             ")");
+  }
+  const TypeInfo& type = type_it->second;
+
+  std::ofstream record;
+  if (!options.record.empty()) {
+    record.open(options.record);
+    if (!record) throw std::runtime_error("cannot write record file " + options.record.string());
+  }
+
+  const Entity participant(dds_create_participant(options.domain, nullptr, nullptr),
+                           "cannot create a DDS participant (check CYCLONEDDS_URI)");
+  const Entity topic(dds_create_topic(participant.handle, type.descriptor, options.topic.c_str(),
+                                      nullptr, nullptr),
+                     "cannot create topic");
+  // The QoS the pipeline's writers offer: RELIABLE; state topics also TRANSIENT_LOCAL.
+  dds_qos_t* qos = dds_create_qos();
+  dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
+  dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, 64);
+  if (type.state) dds_qset_durability(qos, DDS_DURABILITY_TRANSIENT_LOCAL);
+  const dds_entity_t reader_handle =
+      dds_create_reader(participant.handle, topic.handle, qos, nullptr);
+  dds_delete_qos(qos);
+  if (reader_handle < 0) {
+    throw std::runtime_error(std::string("cannot create reader: ") + dds_strretcode(reader_handle));
+  }
+  const Entity waitset(dds_create_waitset(participant.handle), "cannot create waitset");
+  const dds_entity_t readable = dds_create_readcondition(reader_handle, DDS_ANY_STATE);
+  dds_waitset_attach(waitset.handle, readable, 0);
+
+  constexpr std::size_t kBatch = 16;
+  std::uint64_t printed = 0;
+  while (!stop && (options.count == 0 || printed < options.count)) {
+    // Wake up regularly to notice a stop request.
+    const dds_return_t woken = dds_waitset_wait(waitset.handle, nullptr, 0, DDS_MSECS(100));
+    if (woken < 0) throw std::runtime_error(std::string("wait failed: ") + dds_strretcode(woken));
+    void* samples[kBatch] = {};
+    dds_sample_info_t infos[kBatch];
+    const dds_return_t n = dds_take(reader_handle, samples, infos, kBatch, kBatch);
+    if (n < 0) throw std::runtime_error(std::string("take failed: ") + dds_strretcode(n));
+    for (dds_return_t i = 0; i < n; ++i) {
+      if (!infos[i].valid_data) continue;
+      if (options.count != 0 && printed >= options.count) break;
+      const std::string line = type.to_json(samples[i]).dump();
+      out << line << "\n" << std::flush;
+      if (record.is_open()) record << line << "\n" << std::flush;
+      ++printed;
+    }
+    if (n > 0) dds_return_loan(reader_handle, samples, n);
+  }
+  return printed;
+}
+
+}  // namespace thermovis::tap

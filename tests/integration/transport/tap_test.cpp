@@ -1,0 +1,83 @@
+// Vendor interoperability: a Fast DDS writer (transport_peer) publishes thermovis::RangeArray
+// on thermovis/ranges and thermovis-tap, a Cyclone DDS client built from the same IDL with
+// idlc, records what it receives. Both sides stay on 127.0.0.1 (deploy/dds/loopback.xml and
+// cyclonedds-loopback.xml). The test checks the recorded samples field by field.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "child_process.hpp"
+#include "range_pattern.hpp"
+#include "thermovis/test/data.hpp"
+
+namespace {
+
+using namespace std::chrono_literals;
+using thermovis::test::ChildProcess;
+
+int private_domain() { return 100 + static_cast<int>(::getpid() % 100); }
+
+TEST(ThermovisTap, RecordsRangesFromFastDdsWriter) {
+  const auto dir = thermovis::test::temp_dir("tap");
+  const auto record = dir / "ranges.jsonl";
+  const std::string domain = std::to_string(private_domain());
+  const std::string cyclone_config =
+      "file://" + (thermovis::test::source_root() / "deploy/dds/cyclonedds-loopback.xml").string();
+  // The writer sends 40 samples, 50 ms apart, or stops early once the tap has left (Cyclone's
+  // departure reaches Fast DDS only at lease expiry, hence the fixed count).
+  const int wanted = 5;
+
+  ChildProcess tap(
+      {(thermovis::test::bin_dir() / "thermovis-tap").string(), "thermovis/ranges", "--domain",
+       domain, "--count", std::to_string(wanted), "--record", record.string()},
+      dir / "tap.log", {{"CYCLONEDDS_URI", cyclone_config}});
+  ChildProcess publisher(
+      {(thermovis::test::bin_dir() / "transport_peer").string(), "publish-ranges", "--domain",
+       domain, "--count", "40", "--period-ms", "50", "--timeout-s", "60"},
+      dir / "pub.log");
+  const auto tap_exit = tap.wait(90s);
+  const auto pub_exit = publisher.wait(30s);
+  ASSERT_EQ(tap_exit, 0) << "thermovis-tap log:\n" << tap.log();
+  ASSERT_EQ(pub_exit, 0) << "publisher log:\n" << publisher.log();
+
+  std::ifstream in(record);
+  std::vector<nlohmann::json> samples;
+  for (std::string line; std::getline(in, line);) samples.push_back(nlohmann::json::parse(line));
+  ASSERT_EQ(samples.size(), static_cast<std::size_t>(wanted));
+
+  // A reliable stream: consecutive frames once the tap has matched the writer.
+  const auto first = samples.front()["frame_seq"].get<std::uint64_t>();
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    const auto& s = samples[i];
+    const std::uint64_t seq = first + i;
+    SCOPED_TRACE("frame_seq " + std::to_string(seq));
+    ASSERT_EQ(s["frame_seq"].get<std::uint64_t>(), seq);
+    EXPECT_EQ(s["capture_time_ns"].get<std::int64_t>(),
+              thermovis::test::expected_capture_time_ns(seq));
+    ASSERT_EQ(s["targets"].size(), static_cast<std::size_t>(thermovis::test::kTargetsPerFrame));
+    for (int t = 0; t < thermovis::test::kTargetsPerFrame; ++t) {
+      const auto e = thermovis::test::expected_target(seq, t);
+      const auto& got = s["targets"][static_cast<std::size_t>(t)];
+      EXPECT_EQ(got["target_id"].get<std::uint32_t>(), e.target_id);
+      EXPECT_EQ(got["label"].get<std::string>(), e.label);
+      EXPECT_FLOAT_EQ(got["distance_m"].get<float>(), e.distance_m);
+      EXPECT_FLOAT_EQ(got["sigma_m"].get<float>(), e.sigma_m);
+      EXPECT_FLOAT_EQ(got["x_m"].get<float>(), e.x_m);
+      EXPECT_FLOAT_EQ(got["y_m"].get<float>(), e.y_m);
+      EXPECT_FLOAT_EQ(got["z_m"].get<float>(), e.z_m);
+      EXPECT_FLOAT_EQ(got["box"]["x"].get<float>(), e.box_x);
+      EXPECT_FLOAT_EQ(got["box"]["y"].get<float>(), e.box_y);
+      EXPECT_FLOAT_EQ(got["box"]["width"].get<float>(), e.box_width);
+      EXPECT_FLOAT_EQ(got["box"]["height"].get<float>(), e.box_height);
+      EXPECT_EQ(got["point_count"].get<std::uint32_t>(), e.point_count);
+    }
+  }
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
