@@ -71,8 +71,8 @@ std::vector<Texture> builtin_textures() {
                    10.0, 2.0),
       make_texture("metal", P::stripes, V(0.60, 0.60, 0.60), V(0.30, 0.30, 0.30), 0.3, 0.15,
                    ambient, 0.0, 0.5),
-      make_texture("road_marking", P::uniform, V(0.85, 0.85, 0.85), V(0.85, 0.85, 0.85), 1.0, 0.0,
-                   ambient, 1.0, 0.0),
+      make_texture("road_marking", P::noise, V(0.85, 0.85, 0.85), V(0.80, 0.80, 0.80), 0.5, 0.05,
+                   ambient, 1.0, 0.2),
       make_texture("marker", P::uniform, V(1.0, 1.0, 1.0), V(1.0, 1.0, 1.0), 1.0, 0.0, 60.0, 0.0,
                    0.0),
   };

@@ -153,7 +153,11 @@ struct SimulatedRig::Impl {
     }
     const detail::SurfaceSample s = world->shade(hit, d, c.pixel_angle_rad);
     if (!c.visible) return {ir_transfer.counts(s.temperature_c), 0.0f, 0.0f};
-    const float k = detail::World::lighting(hit.normal) * static_cast<float>(exposure.white_dn);
+    // Uniform textures are self-luminous (markers, lamps): not shaded by the sun.
+    const bool shaded =
+        scene.textures[static_cast<std::size_t>(hit.texture)].pattern != TexturePattern::uniform;
+    const float k = (shaded ? detail::World::lighting(hit.normal) : 1.0f) *
+                    static_cast<float>(exposure.white_dn);
     return {k * s.reflectance_bgr.x(), k * s.reflectance_bgr.y(), k * s.reflectance_bgr.z()};
   }
 

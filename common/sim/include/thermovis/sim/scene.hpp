@@ -19,7 +19,7 @@ namespace thermovis::sim {
 
 // How a texture modulates its colours over the surface coordinates (u, v) in metres.
 enum class TexturePattern {
-  uniform,  // colour, no modulation (markers, tests)
+  uniform,  // colour, no modulation, not shaded: self-luminous (markers, lamps)
   noise,    // colour times fractal value noise of cell scale_m
   stripes,  // bands of colour / colour2, scale_m wide, along u
   checker,  // squares of scale_m in colour / colour2
