@@ -26,9 +26,9 @@ json to_json(const thermovis_Box2D& box) {
 
 json to_json(const thermovis_PipelineStamps& stamps) {
   json out = json::array();
-  for (std::uint32_t i = 0; i < stamps.count && i < thermovis_MAX_STAGE_STAMPS; ++i) {
-    const auto& s = stamps.stamps[i];
-    out.push_back({{"stage", s.stage}, {"start_ns", s.start_ns}, {"end_ns", s.end_ns}});
+  for (const auto& s : stamps.stamps) {
+    if (s.stage == thermovis_STAGE_NONE) break;  // first unused entry ends the list
+    out.push_back({{"stage", s.stage}, {"duration_us", s.duration_us}, {"end_ns", s.end_ns}});
   }
   return out;
 }

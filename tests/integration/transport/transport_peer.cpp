@@ -24,6 +24,7 @@
 #include "thermovis/transport/participant.hpp"
 #include "thermovis/transport/reader.hpp"
 #include "thermovis/transport/shared_memory.hpp"
+#include "thermovis/transport/stamps.hpp"
 #include "thermovis/transport/topics.hpp"
 #include "thermovis/transport/writer.hpp"
 
@@ -85,7 +86,8 @@ int publish_frames(const Options& o) {
     frame->pixel_format(thermovis::PIXEL_FORMAT_BGR8);
     frame->width(thermovis::VISIBLE_WIDTH);
     frame->height(thermovis::VISIBLE_HEIGHT);
-    frame->stamps().count(0);
+    frame->step(thermovis::VISIBLE_WIDTH * 3);
+    tt::clear_stamps(frame->stamps());
     thermovis::test::fill_pattern(frame->left().data(), frame->left().size(), seq, 0);
     thermovis::test::fill_pattern(frame->right().data(), frame->right().size(), seq, 1);
     frames.push_back({{"seq", seq}, {"left", where(frame->left().data())}});

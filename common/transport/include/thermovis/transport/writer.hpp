@@ -5,6 +5,7 @@
 // elsewhere: one memcpy into the pool).
 #include <utility>
 
+#include "thermovis/transport/bounds.hpp"
 #include "thermovis/transport/endpoint.hpp"
 #include "thermovis/transport/topic_types.hpp"
 
@@ -52,7 +53,12 @@ class Writer : public WriterBase {
     write_raw(sample);
   }
 
-  void write(const T& sample) { write_raw(const_cast<T*>(&sample)); }
+  // Copies `sample` into the writer. Throws std::invalid_argument when a sequence exceeds its
+  // IDL bound (bounds.hpp).
+  void write(const T& sample) {
+    if constexpr (HasBounds<T>) check_bounds(sample);
+    write_raw(const_cast<T*>(&sample));  // Fast DDS takes void* but only reads it
+  }
 
  private:
   friend class Loan<T>;

@@ -1,0 +1,21 @@
+#pragma once
+// Filling and reading the per-stage stamps (thermovis::PipelineStamps) every message carries.
+#include <cstddef>
+#include <cstdint>
+
+#include "thermovis/commonPubSubTypes.h"
+
+namespace thermovis::transport {
+
+// Marks every entry unused (a loaned frame's memory is not initialised).
+void clear_stamps(thermovis::PipelineStamps& stamps);
+
+// Number of used entries (up to the first unused one).
+std::size_t stamp_count(const thermovis::PipelineStamps& stamps);
+
+// Appends `stage` that ran from start_ns to end_ns (stamp clock, clock.hpp). Returns false,
+// leaving the stamps unchanged, when all MAX_STAGE_STAMPS entries are used or end < start.
+bool append_stamp(thermovis::PipelineStamps& stamps, thermovis::Stage stage, std::int64_t start_ns,
+                  std::int64_t end_ns);
+
+}  // namespace thermovis::transport

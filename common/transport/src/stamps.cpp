@@ -1,0 +1,38 @@
+#include "thermovis/transport/stamps.hpp"
+
+#include <algorithm>
+#include <limits>
+
+namespace thermovis::transport {
+
+void clear_stamps(thermovis::PipelineStamps& stamps) {
+  for (auto& stamp : stamps.stamps()) {
+    stamp.stage(thermovis::STAGE_NONE);
+    stamp.duration_us(0);
+    stamp.end_ns(0);
+  }
+}
+
+std::size_t stamp_count(const thermovis::PipelineStamps& stamps) {
+  std::size_t count = 0;
+  while (count < stamps.stamps().size() &&
+         stamps.stamps()[count].stage() != thermovis::STAGE_NONE) {
+    ++count;
+  }
+  return count;
+}
+
+bool append_stamp(thermovis::PipelineStamps& stamps, thermovis::Stage stage, std::int64_t start_ns,
+                  std::int64_t end_ns) {
+  const std::size_t index = stamp_count(stamps);
+  if (index >= stamps.stamps().size() || end_ns < start_ns) return false;
+  const std::int64_t duration_us = (end_ns - start_ns) / 1000;
+  auto& stamp = stamps.stamps()[index];
+  stamp.stage(stage);
+  stamp.duration_us(static_cast<std::uint32_t>(
+      std::min<std::int64_t>(duration_us, std::numeric_limits<std::uint32_t>::max())));
+  stamp.end_ns(end_ns);
+  return true;
+}
+
+}  // namespace thermovis::transport
