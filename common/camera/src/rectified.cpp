@@ -6,6 +6,19 @@
 
 namespace thermovis::camera {
 
+RectifiedIntrinsics scaled(const RectifiedIntrinsics& grid, double scale) {
+  if (!(scale > 0.0) || !std::isfinite(scale)) {
+    throw std::invalid_argument("rectified grid: scale must be positive and finite");
+  }
+  RectifiedIntrinsics out = grid;
+  out.width = 2 * static_cast<int>(std::ceil(grid.width * scale / 2.0));
+  out.height = 2 * static_cast<int>(std::ceil(grid.height * scale / 2.0));
+  out.f = grid.f * scale;
+  out.cx = (grid.cx + 0.5) * scale - 0.5;
+  out.cy = (grid.cy + 0.5) * scale - 0.5;
+  return out;
+}
+
 RectifiedCamera::RectifiedCamera(RectifiedIntrinsics intrinsics) : intr_(intrinsics) {
   if (intr_.width <= 0 || intr_.height <= 0) {
     throw std::invalid_argument("rectified camera: image size must be positive");

@@ -9,6 +9,7 @@
 #include <queue>
 #include <set>
 #include <sstream>
+#include <vector>
 
 #include "thermovis/camera/rectified.hpp"
 #include "thermovis/runtime/yaml_util.hpp"
@@ -281,14 +282,24 @@ std::string taylor_to_yaml(const camera::TaylorIntrinsics& intrinsics) {
   return std::string(out.c_str()) + "\n";
 }
 
+std::filesystem::path shipped_file(const std::string& relative) {
+  std::vector<std::filesystem::path> roots;
+  if (const char* env = std::getenv("THERMOVIS_DEPLOY_DIR"); env != nullptr && *env != '\0') {
+    roots.emplace_back(env);
+  }
+  roots.emplace_back(std::filesystem::path(THERMOVIS_SOURCE_DIR) / "deploy");
+  roots.emplace_back("/usr/local/share/thermovis");
+  for (const auto& root : roots) {
+    if (std::filesystem::exists(root / relative)) return root / relative;
+  }
+  throw ConfigError("shipped file '" + relative + "' not found under $THERMOVIS_DEPLOY_DIR, " +
+                    (std::filesystem::path(THERMOVIS_SOURCE_DIR) / "deploy").string() +
+                    " or /usr/local/share/thermovis");
+}
+
 std::filesystem::path default_rig_path() {
   if (const char* env = std::getenv("THERMOVIS_RIG"); env != nullptr && *env != '\0') return env;
-  for (const std::filesystem::path& candidate :
-       {std::filesystem::path(THERMOVIS_SOURCE_DIR) / "deploy/rigs/paper.yaml",
-        std::filesystem::path("/usr/local/share/thermovis/rigs/paper.yaml")}) {
-    if (std::filesystem::exists(candidate)) return candidate;
-  }
-  throw ConfigError("no default rig found: set THERMOVIS_RIG or pass --rig");
+  return shipped_file("rigs/paper.yaml");
 }
 
 }  // namespace thermovis::runtime

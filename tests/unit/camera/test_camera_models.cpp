@@ -100,3 +100,26 @@ TYPED_TEST(CameraModelTest, RejectsNonFiniteInput) {
 }
 
 }  // namespace
+
+namespace {
+
+// A scaled grid sees the same ray at the scaled pixel position.
+TEST(RectifiedGrid, ScalingKeepsTheFieldAndPixelCentres) {
+  const tc::RectifiedIntrinsics full{1870,  1280,  835.4,
+                                     930.2, 611.7, tc::RectifiedProjection::equirectangular};
+  const tc::RectifiedIntrinsics half = tc::scaled(full, 0.5);
+  EXPECT_EQ(half.width, 936);
+  EXPECT_EQ(half.height, 640);
+  const tc::RectifiedCamera a(full), b(half);
+  for (const Eigen::Vector2d& px : {Eigen::Vector2d(0, 0), Eigen::Vector2d(1000.5, 300.25)}) {
+    Eigen::Vector3d ray;
+    ASSERT_TRUE(a.unproject(px, ray));
+    Eigen::Vector2d in_half;
+    ASSERT_TRUE(b.project(ray, in_half));
+    EXPECT_NEAR(in_half.x(), (px.x() + 0.5) * 0.5 - 0.5, 1e-9);
+    EXPECT_NEAR(in_half.y(), (px.y() + 0.5) * 0.5 - 0.5, 1e-9);
+  }
+  EXPECT_THROW(tc::scaled(full, 0.0), std::invalid_argument);
+}
+
+}  // namespace

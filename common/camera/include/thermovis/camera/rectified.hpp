@@ -25,6 +25,10 @@ struct RectifiedIntrinsics {
   RectifiedProjection projection = RectifiedProjection::equirectangular;
 };
 
+// The same field on a grid resampled by `scale` (0.5: half the columns and rows, f halved);
+// pixel centres stay at integers, so cx' = (cx + 0.5) scale - 0.5. Sizes round up to even.
+RectifiedIntrinsics scaled(const RectifiedIntrinsics& grid, double scale);
+
 class RectifiedCamera final : public CameraModel {
  public:
   explicit RectifiedCamera(RectifiedIntrinsics intrinsics);

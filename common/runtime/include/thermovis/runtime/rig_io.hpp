@@ -33,8 +33,11 @@ camera::TaylorIntrinsics parse_taylor_yaml(const std::string& yaml_text,
 camera::TaylorIntrinsics load_taylor_yaml(const std::filesystem::path& path);
 std::string taylor_to_yaml(const camera::TaylorIntrinsics& intrinsics);
 
-// The default rig shipped with the project (deploy/rigs/paper.yaml), located from
-// $THERMOVIS_RIG, then the source tree, then the installed share folder.
+// A file shipped under deploy/ (e.g. "rigs/paper.yaml"), looked up in $THERMOVIS_DEPLOY_DIR, then
+// the source tree's deploy/, then /usr/local/share/thermovis/. Throws ConfigError when absent.
+std::filesystem::path shipped_file(const std::string& relative);
+
+// The default rig: $THERMOVIS_RIG, else shipped_file("rigs/paper.yaml").
 std::filesystem::path default_rig_path();
 
 }  // namespace thermovis::runtime
