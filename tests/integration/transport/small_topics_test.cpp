@@ -1,0 +1,105 @@
+// Small topics in one process (two participants on a private domain, loopback profile):
+// health state reaches a late subscriber (TRANSIENT_LOCAL, one instance per service), ranges
+// arrive reliably and in order, and misuse is refused with a clear error.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <map>
+
+#include "thermovis/transport/participant.hpp"
+#include "thermovis/transport/reader.hpp"
+#include "thermovis/transport/topics.hpp"
+#include "thermovis/transport/writer.hpp"
+
+namespace {
+
+namespace tt = thermovis::transport;
+using namespace std::chrono_literals;
+
+tt::ParticipantConfig loopback(const std::string& name) {
+  return {100 + static_cast<int>(::getpid() % 100), {}, tt::kLoopbackProfile, name};
+}
+
+thermovis::Health health(const std::string& service, thermovis::HealthState state,
+                         std::uint64_t frames) {
+  thermovis::Health h;
+  h.service(service);
+  h.state(state);
+  h.frames_processed(frames);
+  h.message(state == thermovis::HEALTH_OK ? "running" : "starting");
+  return h;
+}
+
+TEST(TransportSmallTopics, LateSubscriberGetsLastHealthOfEachService) {
+  tt::Participant publisher(loopback("health writer"));
+  tt::Writer<thermovis::Health> writer(publisher, tt::topics::kHealth, tt::state_topic_qos());
+  writer.write(health("thermovis-detect", thermovis::HEALTH_STARTING, 0));
+  writer.write(health("thermovis-detect", thermovis::HEALTH_OK, 50));
+  writer.write(health("thermovis-range", thermovis::HEALTH_OK, 7));
+
+  // Created after the writes: only durability can bring them.
+  tt::Participant subscriber(loopback("health reader"));
+  tt::Reader<thermovis::Health> reader(subscriber, tt::topics::kHealth, tt::state_topic_qos());
+  ASSERT_TRUE(reader.wait_for_writers(1, 10s));
+  std::map<std::string, std::uint64_t> frames_by_service;
+  const auto give_up = std::chrono::steady_clock::now() + 10s;
+  while (frames_by_service.size() < 2 && std::chrono::steady_clock::now() < give_up) {
+    if (!reader.wait_for_data(100ms)) continue;
+    auto samples = reader.take();
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+      frames_by_service[samples[i].service().to_string()] = samples[i].frames_processed();
+      EXPECT_EQ(samples[i].state(), thermovis::HEALTH_OK);  // the older state was replaced
+    }
+  }
+  EXPECT_EQ(frames_by_service, (std::map<std::string, std::uint64_t>{{"thermovis-detect", 50},
+                                                                     {"thermovis-range", 7}}));
+}
+
+TEST(TransportSmallTopics, RangesArriveInOrder) {
+  tt::Participant a(loopback("ranges writer"));
+  tt::Participant b(loopback("ranges reader"));
+  tt::Reader<thermovis::RangeArray> reader(b, tt::topics::kRanges, tt::event_topic_qos());
+  tt::Writer<thermovis::RangeArray> writer(a, tt::topics::kRanges, tt::event_topic_qos());
+  ASSERT_TRUE(writer.wait_for_readers(1, 10s));
+  ASSERT_TRUE(reader.wait_for_writers(1, 10s));
+  for (std::uint64_t seq = 1; seq <= 5; ++seq) {
+    thermovis::RangeArray ranges;
+    ranges.frame_seq(seq);
+    ranges.targets().resize(seq);
+    ranges.targets().back().distance_m(2.5f * static_cast<float>(seq));
+    writer.write(ranges);
+  }
+  std::vector<std::uint64_t> seqs;
+  const auto give_up = std::chrono::steady_clock::now() + 10s;
+  while (seqs.size() < 5 && std::chrono::steady_clock::now() < give_up) {
+    if (!reader.wait_for_data(100ms)) continue;
+    auto samples = reader.take();
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+      seqs.push_back(samples[i].frame_seq());
+      EXPECT_EQ(samples[i].targets().size(), samples[i].frame_seq());
+      EXPECT_FLOAT_EQ(samples[i].targets().back().distance_m(),
+                      2.5f * static_cast<float>(samples[i].frame_seq()));
+    }
+  }
+  EXPECT_EQ(seqs, (std::vector<std::uint64_t>{1, 2, 3, 4, 5}));
+  EXPECT_EQ(writer.counters().samples, 5u);
+  EXPECT_EQ(reader.counters().samples, 5u);
+}
+
+TEST(TransportSmallTopics, MisuseIsRefused) {
+  tt::Participant participant(loopback("misuse"));
+  // A type with sequences cannot be a frame topic (no data-sharing) ...
+  EXPECT_THROW(
+      tt::Writer<thermovis::RangeArray>(participant, "thermovis/test/bad", tt::frame_topic_qos()),
+      std::invalid_argument);
+  // ... nor be loaned.
+  tt::Writer<thermovis::RangeArray> writer(participant, tt::topics::kRanges, tt::event_topic_qos());
+  EXPECT_THROW(writer.loan(), std::runtime_error);
+  // One topic name, one type.
+  EXPECT_THROW(
+      tt::Writer<thermovis::Health>(participant, tt::topics::kRanges, tt::event_topic_qos()),
+      std::runtime_error);
+}
+
+}  // namespace
