@@ -18,15 +18,19 @@ struct Sample {
 
 // Least squares for (p, q) = (1 / k2, k1 / k2) at fixed R: raw = (x, y) (p + q (r - R)^2).
 // Returns the sum of squared residuals.
+// The first sample is the side edge's midpoint (x = a, y = 0), held by a heavy weight: the
+// corrected image's side edges stay at the raw image's, so the whole width is kept.
 double solve_linear(const std::vector<Sample>& samples, double R, double& p, double& q) {
   Eigen::Matrix2d normal = Eigen::Matrix2d::Zero();
   Eigen::Vector2d rhs = Eigen::Vector2d::Zero();
-  for (const Sample& s : samples) {
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    const Sample& s = samples[i];
+    const double weight = i == 0 ? 1e6 : 1.0;
     const double d2 = (s.r - R) * (s.r - R);
     for (const auto& [coord, target] : {std::pair{s.x, s.tx}, std::pair{s.y, s.ty}}) {
       const Eigen::Vector2d row(coord, coord * d2);
-      normal += row * row.transpose();
-      rhs += row * target;
+      normal += weight * row * row.transpose();
+      rhs += weight * row * target;
     }
   }
   const Eigen::Vector2d sol = normal.ldlt().solve(rhs);
@@ -47,26 +51,26 @@ EllipticalFit fit_elliptical_model(const camera::TaylorCamera& camera) {
   const double a = size.width / 2.0, b = size.height / 2.0;
   const double cx = (size.width - 1) / 2.0, cy = (size.height - 1) / 2.0;
   const double phi_a = camera.field_angle_at_radius(a);
-  const double phi_b = camera.field_angle_at_radius(b);
-  if (!(phi_a > 0.0 && phi_a < M_PI / 2 && phi_b > 0.0 && phi_b < M_PI / 2)) {
+  if (!(phi_a > 0.0 && phi_a < M_PI / 2)) {
     throw std::invalid_argument(
-        "elliptical model: the lens's field at the image edges is not between 0 and 90 deg, so "
-        "no pinhole-like target exists");
+        "elliptical model: the lens's field at the image's side edges is not between 0 and 90 "
+        "deg, so no pinhole target exists");
   }
   EllipticalFit fit;
   fit.model.image_size = size;
-  fit.target_fx_px = a / std::tan(phi_a);
-  fit.target_fy_px = b / std::tan(phi_b);
-  std::vector<Sample> samples;
+  fit.target_f_px = a / std::tan(phi_a);
+  std::vector<Sample> samples{{a, 0.0, 1.0, a, 0.0}};
   for (int v = 0; v < size.height; v += 8) {
     for (int u = 0; u < size.width; u += 8) {
       const double x = u - cx, y = v - cy;
-      // Target: the ray of the axis-scaled pinhole, through the lens's radial function.
-      const double X = x / fit.target_fx_px, Y = y / fit.target_fy_px;
+      // Target: the ray of the pinhole, through the lens's radial function.
+      const double X = x / fit.target_f_px, Y = y / fit.target_f_px;
       const double t = std::hypot(X, Y);
       const double phi = std::atan(t);
       if (phi >= camera.max_field_angle()) continue;
       const double rho = camera.radius_at_field_angle(phi);
+      // Only where the target sees the raw image: beyond it there is nothing to correct.
+      if (std::abs(X / t * rho) > a || std::abs(Y / t * rho) > b) continue;
       const double tx = t > 0.0 ? X / t * rho : 0.0, ty = t > 0.0 ? Y / t * rho : 0.0;
       samples.push_back({x, y, std::sqrt(x * x / (a * a) + y * y / (b * b)), tx, ty});
     }
@@ -124,12 +128,15 @@ cv::Mat build_elliptical_map(const EllipticalModel& m) {
     auto* row = map.ptr<cv::Vec2f>(v);
     for (int u = 0; u < w; ++u) {
       const int u_rep = std::min(u, w - 1 - u);
-      // The representative in the top-left quadrant; (w - 1) - x mirrors exactly in float.
+      // The representative in the top-left quadrant, mirrored.
+      // Positions on a 2^-13 px grid: then both a position and its mirror (w - 1) - x are exact
+      // floats (below 2048 px), and the fixed-point table is exactly symmetric.
       const cv::Point2d p = elliptical_source(m, u_rep, v_rep);
-      float x = static_cast<float>(p.x), y = static_cast<float>(p.y);
-      if (u != u_rep) x = static_cast<float>(w - 1) - x;
-      if (v != v_rep) y = static_cast<float>(h - 1) - y;
-      row[u] = cv::Vec2f(x, y);
+      double x = std::ldexp(std::round(std::ldexp(p.x, 13)), -13);
+      double y = std::ldexp(std::round(std::ldexp(p.y, 13)), -13);
+      if (u != u_rep) x = (w - 1) - x;
+      if (v != v_rep) y = (h - 1) - y;
+      row[u] = cv::Vec2f(static_cast<float>(x), static_cast<float>(y));
     }
   }
   return map;

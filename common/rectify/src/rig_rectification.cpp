@@ -24,10 +24,11 @@ RectifiedPair rectify_pair(const camera::Rig& rig, const camera::StereoPair& pai
 }
 
 RigRectification rectify_rig(const camera::Rig& rig, const RectificationOptions& options) {
-  RigRectification out;
-  out.registration_distance_m = options.registration_distance_m;
-  out.visible = rectify_pair(rig, rig.visible, options.projection, options.visible_width);
-  out.infrared = rectify_pair(rig, rig.infrared, options.projection, options.infrared_width);
+  RigRectification out{rectify_pair(rig, rig.visible, options.projection, options.visible_width),
+                       rectify_pair(rig, rig.infrared, options.projection, options.infrared_width),
+                       {},
+                       {},
+                       options.registration_distance_m};
   const StereoGeometry& g = out.visible.geometry;
   out.infrared_left_on_visible = build_map(rig.camera(rig.infrared.left), g.T_ref_left_rect, g.grid,
                                            options.registration_distance_m);

@@ -73,34 +73,46 @@ camera::RectifiedIntrinsics grid_matching_camera(const camera::RigCamera& raw, i
 camera::RectifiedIntrinsics default_pair_grid(const camera::Rig& rig,
                                               const camera::StereoPair& pair,
                                               camera::RectifiedProjection projection) {
-  const auto& left = rig.camera(pair.left);
-  const auto& right = rig.camera(pair.right);
-  double field = 0.0;  // rad
-  for (const auto* cam : {&left, &right}) {
-    if (const auto* taylor = dynamic_cast<const camera::TaylorCamera*>(cam->model.get())) {
-      field = std::max(field, camera::field_figures(*taylor, 64).horizontal_deg * M_PI / 180.0);
-    } else {
-      // Any model: the angle between the rays of the outer columns on the middle row.
-      const cv::Size size = cam->model->image_size();
-      Eigen::Vector3d a, b;
-      if (cam->model->unproject({-0.5, size.height / 2.0}, a) &&
-          cam->model->unproject({size.width - 0.5, size.height / 2.0}, b)) {
-        field = std::max(field, std::atan2(a.cross(b).norm(), a.dot(b)));
+  camera::RectifiedIntrinsics grid = grid_matching_camera(rig.camera(pair.left), 2);
+  grid.projection = projection;
+  const StereoGeometry g = make_stereo_geometry(rig, pair, grid);
+  // Grid coordinates per unit f: column = alpha (or tan alpha), row = beta.
+  const camera::RectifiedCamera unit({2, 2, 1.0, 0.0, 0.0, projection});
+  double col_min = 0.0, col_max = 0.0, row_min = 0.0, row_max = 0.0;
+  auto extend = [&unit](const Eigen::Vector3d& ray, double& lo, double& hi, bool column) {
+    Eigen::Vector2d p;
+    if (!unit.project(ray, p)) return;
+    const double value = column ? p.x() : p.y();
+    lo = std::min(lo, value);
+    hi = std::max(hi, value);
+  };
+  for (const auto& [name, T_ref_rect] :
+       {std::pair{pair.left, g.T_ref_left_rect}, std::pair{pair.right, g.T_ref_right_rect}}) {
+    const camera::RigCamera& cam = rig.camera(name);
+    const Eigen::Matrix3d R_rect_cam = T_ref_rect.linear().transpose() * cam.T_ref_cam.linear();
+    const cv::Size size = cam.model->image_size();
+    // The outer edges near their midpoints (the middle tenth): each eye's whole width and
+    // height along its centre lines (the fisheye's corners reach farther and are cut).
+    for (int i = 0; i <= 16; ++i) {
+      const double t = 0.45 + 0.1 * i / 16.0;
+      Eigen::Vector3d ray;
+      for (double x : {-0.5, size.width - 0.5}) {
+        if (cam.model->unproject({x, t * size.height}, ray)) {
+          extend(R_rect_cam * ray, col_min, col_max, true);
+        }
+      }
+      for (double y : {-0.5, size.height - 0.5}) {
+        if (cam.model->unproject({t * size.width, y}, ray)) {
+          extend(R_rect_cam * ray, row_min, row_max, false);
+        }
       }
     }
   }
-  const Eigen::Vector3d axis_left = left.T_ref_cam.linear().col(2);
-  const Eigen::Vector3d axis_right = right.T_ref_cam.linear().col(2);
-  field += std::atan2(axis_left.cross(axis_right).norm(), axis_left.dot(axis_right));
-  camera::RectifiedIntrinsics grid = grid_matching_camera(left, 2);
-  grid.projection = projection;
-  if (projection == camera::RectifiedProjection::equirectangular) {
-    grid.width = 2 * static_cast<int>(std::ceil(grid.f * field / 2.0));
-  } else {
-    // Cylindrical columns grow as tan(alpha): the same angle needs f tan(field / 2) each side.
-    grid.width = 2 * static_cast<int>(std::ceil(grid.f * std::tan(std::min(field, 3.0) / 2.0)));
-  }
-  grid.cx = (grid.width - 1) / 2.0;
+  // Even sizes; the rounding margin split on both sides. Pixel edges at -0.5 and size - 0.5.
+  grid.width = 2 * static_cast<int>(std::ceil(grid.f * (col_max - col_min) / 2.0));
+  grid.height = 2 * static_cast<int>(std::ceil(grid.f * (row_max - row_min) / 2.0));
+  grid.cx = -0.5 - grid.f * col_min + (grid.width - grid.f * (col_max - col_min)) / 2.0;
+  grid.cy = -0.5 - grid.f * row_min + (grid.height - grid.f * (row_max - row_min)) / 2.0;
   return grid;
 }
 

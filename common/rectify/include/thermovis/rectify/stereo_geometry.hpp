@@ -33,11 +33,12 @@ StereoGeometry make_stereo_geometry(const camera::Rig& rig, const camera::Stereo
 camera::RectifiedIntrinsics grid_matching_camera(const camera::RigCamera& raw, int width);
 
 // The default grid of a stereo pair (used by `thermovis rectify` and the pipeline): the left
-// camera's centre resolution (grid_matching_camera), and a width that covers the wider of the
-// two eyes' horizontal fields plus the angle between their optical axes (each eye is rotated
-// by about half of it in the shared rectified frame), rounded up to an even number of columns
-// (so a symmetric map can be stored as a quarter). Paper rig: visible 1864 x 1082 px, 835.4 px
-// per rad, 127.9 deg wide; infrared 924 x 796 px, 416.2 px per rad, 127.2 deg wide.
+// camera's centre resolution (f of grid_matching_camera), and the bounding box, in the shared
+// rectified frame, of both eyes' left/right image edges (middle tenth of their rows) and
+// top/bottom edges (middle tenth of their columns): each eye's whole horizontal and vertical
+// field along its centre lines is kept (the fisheye corners reach farther and are cut). The eyes
+// are rotated differently from the rectified frame (the paper's visible pair by about 7 and 3
+// deg of yaw), so the box, and (cx, cy), are not centred. Sizes are rounded up to even.
 camera::RectifiedIntrinsics default_pair_grid(
     const camera::Rig& rig, const camera::StereoPair& pair,
     camera::RectifiedProjection projection = camera::RectifiedProjection::equirectangular);
