@@ -7,6 +7,7 @@
 
 #include <fstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -77,6 +78,34 @@ TEST(ThermovisTap, RecordsRangesFromFastDdsWriter) {
       EXPECT_EQ(got["point_count"].get<std::uint32_t>(), e.point_count);
     }
   }
+  std::filesystem::remove_all(dir);
+}
+
+TEST(ThermovisTap, StopsCleanlyOnSigterm) {
+  const auto dir = thermovis::test::temp_dir("tap-stop");
+  const auto record = dir / "health.jsonl";
+  const std::string cyclone_config =
+      "file://" + (thermovis::test::source_root() / "deploy/dds/cyclonedds-loopback.xml").string();
+  ChildProcess tap({(thermovis::test::bin_dir() / "thermovis-tap").string(), "thermovis/health",
+                    "--domain", std::to_string(private_domain()), "--record", record.string()},
+                   dir / "tap.log", {{"CYCLONEDDS_URI", cyclone_config}});
+  // The record file is opened before the DDS entities: once it exists the tap is running.
+  const auto give_up = std::chrono::steady_clock::now() + 30s;
+  while (!std::filesystem::exists(record) && std::chrono::steady_clock::now() < give_up) {
+    std::this_thread::sleep_for(10ms);
+  }
+  ASSERT_TRUE(std::filesystem::exists(record)) << tap.log();
+  tap.signal(SIGTERM);
+  EXPECT_EQ(tap.wait(10s), 0) << tap.log();
+  std::filesystem::remove_all(dir);
+}
+
+TEST(ThermovisTap, UnknownTopicIsAnError) {
+  const auto dir = thermovis::test::temp_dir("tap-bad");
+  ChildProcess tap({(thermovis::test::bin_dir() / "thermovis-tap").string(), "thermovis/nope"},
+                   dir / "tap.log");
+  EXPECT_EQ(tap.wait(10s), 1);
+  EXPECT_NE(tap.log().find("unknown topic 'thermovis/nope'"), std::string::npos) << tap.log();
   std::filesystem::remove_all(dir);
 }
 
