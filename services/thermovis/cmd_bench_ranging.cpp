@@ -1,0 +1,259 @@
+// thermovis bench ranging: the paper's Table 6 on the simulated rig. For each trial, one scene
+// holds a person at every requested distance (random bearing in its own sector so none hides
+// another, random clothing, illuminance and air temperature, fresh noise seed); each person's
+// truth box (raw left image) is ranged in every mode and compared with the true distance of its
+// centre. Prints per distance and mode the mean and max absolute error beside the paper's.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <iomanip>
+#include <iostream>
+#include <map>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <random>
+#include <sstream>
+#include <stdexcept>
+
+#include "command.hpp"
+#include "thermovis/range/stereo_ranger.hpp"
+#include "thermovis/runtime/rig_io.hpp"
+#include "thermovis/runtime/scene_io.hpp"
+#include "thermovis/sim/simulated_rig.hpp"
+
+namespace {
+
+namespace rg = thermovis::range;
+namespace sim = thermovis::sim;
+
+struct Options {
+  std::string rig;
+  std::string distances = "5,10,15,20,25,30,40,60";
+  int trials = 5;
+  std::string mode = "all";
+  std::string method = "ncc";
+  std::uint64_t seed = 1;
+  bool json = false;
+};
+
+// Table 6 of the paper: absolute difference (m) per distance for visible, infrared, fused.
+struct PaperRow {
+  double visible, infrared, fused;
+};
+const std::map<int, PaperRow> kTable6 = {{5, {0.18, 0.05, 0.01}},  {10, {0.15, 0.02, 0.0}},
+                                         {15, {0.36, 0.04, 0.02}}, {20, {0.99, 0.16, 0.02}},
+                                         {25, {0.86, 0.47, 0.14}}, {30, {1.62, 0.47, 0.37}},
+                                         {40, {2.01, 0.54, 0.22}}, {60, {3.24, 2.55, 0.35}}};
+
+std::optional<double> paper_error(double distance, rg::Mode mode) {
+  const auto it = kTable6.find(static_cast<int>(std::lround(distance)));
+  if (it == kTable6.end() || std::abs(distance - it->first) > 1e-9) return std::nullopt;
+  switch (mode) {
+    case rg::Mode::visible:
+      return it->second.visible;
+    case rg::Mode::infrared:
+      return it->second.infrared;
+    case rg::Mode::fused:
+      return it->second.fused;
+  }
+  return std::nullopt;
+}
+
+std::vector<double> parse_distances(const std::string& text) {
+  std::vector<double> out;
+  std::stringstream ss(text);
+  for (std::string item; std::getline(ss, item, ',');) {
+    try {
+      const double d = std::stod(item);
+      if (!(d > 0.5) || !std::isfinite(d)) throw std::invalid_argument("");
+      out.push_back(d);
+    } catch (const std::exception&) {
+      throw std::invalid_argument("--distances: '" + item +
+                                  "' is not a distance in metres (> 0.5)");
+    }
+  }
+  if (out.empty()) throw std::invalid_argument("--distances: none given");
+  return out;
+}
+
+struct Cell {
+  std::vector<double> errors;
+  int within_sigma = 0, failures = 0;
+  double sigma_sum = 0;
+};
+
+int run_bench_ranging(const Options& opt) {
+  if (opt.trials < 1) throw std::invalid_argument("--trials must be >= 1");
+  const std::vector<double> distances = parse_distances(opt.distances);
+  std::vector<rg::Mode> modes;
+  if (opt.mode == "all") {
+    modes = {rg::Mode::visible, rg::Mode::infrared, rg::Mode::fused};
+  } else {
+    modes = {rg::parse_mode(opt.mode)};
+  }
+  const auto rig = thermovis::runtime::load_rig(
+      opt.rig.empty() ? thermovis::runtime::default_rig_path() : std::filesystem::path(opt.rig));
+  const sim::Scene base =
+      thermovis::runtime::load_scene(thermovis::runtime::shipped_scene_path("paper"));
+  const rg::StereoRanger ranger(rig);
+  rg::RangerOptions options;
+  options.match.method = thermovis::match::parse_method(opt.method);
+
+  std::mt19937_64 rng(opt.seed);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const std::vector<std::string> clothing = {"clothing", "clothing_red", "clothing_blue"};
+  std::map<std::pair<double, rg::Mode>, Cell> cells;
+  const auto t_start = std::chrono::steady_clock::now();
+  for (int trial = 0; trial < opt.trials; ++trial) {
+    sim::Scene scene = base;
+    scene.name = "bench_ranging";
+    scene.targets.clear();
+    // Bearings: one sector per distance over +-50 deg, in shuffled order.
+    const double half_field = 50.0, sector = 2 * half_field / static_cast<double>(distances.size());
+    std::vector<size_t> order(distances.size());
+    std::iota(order.begin(), order.end(), 0);
+    std::shuffle(order.begin(), order.end(), rng);
+    for (size_t i = 0; i < distances.size(); ++i) {
+      sim::Target t;
+      std::ostringstream id;
+      id << "person_" << distances[i] << "m";
+      t.id = id.str();
+      t.cls = sim::TargetClass::person;
+      t.distance_m = distances[i];
+      const double margin =
+          std::min(0.45 * sector, std::atan2(0.5, distances[i]) * 180 / M_PI + 1.0);
+      t.bearing_deg = -half_field + sector * (static_cast<double>(order[i]) + 0.5) +
+                      (unit(rng) - 0.5) * (sector - 2 * margin);
+      t.heading_deg = (unit(rng) - 0.5) * 60.0;
+      t.texture = clothing[static_cast<size_t>(unit(rng) * 2.999)];
+      scene.targets.push_back(t);
+    }
+    scene.visible.illuminance_lux =
+        std::exp(std::log(300.0) + unit(rng) * (std::log(50000.0) - std::log(300.0)));
+    scene.infrared.ambient_c = 0.0 + 30.0 * unit(rng);
+    const sim::SimulatedRig simulated(rig, scene, rng());
+    sim::FrameSet frames = simulated.allocate();
+    simulated.render(0, frames);
+    rg::RawFrames raw{frames[sim::Slot::visible_left], frames[sim::Slot::visible_right],
+                      frames[sim::Slot::infrared_left], frames[sim::Slot::infrared_right]};
+    const rg::RectifiedFrames rectified = ranger.rectify(raw);
+    for (const sim::TargetTruth& truth : simulated.truth(0)) {
+      const auto it = std::find_if(scene.targets.begin(), scene.targets.end(),
+                                   [&](const sim::Target& t) { return t.id == truth.id; });
+      const double nominal = it->distance_m;
+      options.centre_offset_m = rg::surface_to_centre_m("person");
+      for (rg::Mode mode : modes) {
+        Cell& cell = cells[{nominal, mode}];
+        const auto& raw_box = truth.boxes[static_cast<size_t>(
+            mode == rg::Mode::infrared ? sim::Slot::infrared_left : sim::Slot::visible_left)];
+        if (!raw_box) {
+          ++cell.failures;
+          continue;
+        }
+        const cv::Rect box = ranger.raw_box_to_rectified(mode, raw_box->x_min, raw_box->y_min,
+                                                         raw_box->x_max, raw_box->y_max);
+        const rg::RangedTarget r = ranger.range(rectified, mode, box, options);
+        if (r.range.status != rg::RangeStatus::ok) {
+          ++cell.failures;
+          continue;
+        }
+        const double error = r.range.distance_m - truth.distance_m;
+        cell.errors.push_back(error);
+        cell.within_sigma += std::abs(error) <= r.range.sigma_m;
+        cell.sigma_sum += r.range.sigma_m;
+      }
+    }
+    if (!opt.json) {
+      std::cerr << "trial " << trial + 1 << "/" << opt.trials << " done ("
+                << std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count()
+                << " s)\n";
+    }
+  }
+
+  // Physics: Eq. 2 for 0.1 px of disparity error at the grid's centre resolution.
+  auto eq2 = [&](rg::Mode mode, double L) {
+    const auto& g = ranger.geometry(mode);
+    return L * L / (g.grid.intrinsics().f * g.baseline_m) * 0.1;
+  };
+  std::vector<nlohmann::json> rows;
+  for (double distance : distances) {
+    for (rg::Mode mode : modes) {
+      const Cell& c = cells[{distance, mode}];
+      const int n = static_cast<int>(c.errors.size());
+      double mean_abs = 0, max_abs = 0, mean_signed = 0;
+      for (double e : c.errors) {
+        mean_abs += std::abs(e);
+        mean_signed += e;
+        max_abs = std::max(max_abs, std::abs(e));
+      }
+      nlohmann::json row{
+          {"distance_m", distance},
+          {"mode", rg::mode_name(mode)},
+          {"trials", opt.trials},
+          {"ranged", n},
+          {"failures", c.failures},
+          {"mean_abs_error_m", n ? nlohmann::json(mean_abs / n) : nlohmann::json()},
+          {"mean_signed_error_m", n ? nlohmann::json(mean_signed / n) : nlohmann::json()},
+          {"max_abs_error_m", n ? nlohmann::json(max_abs) : nlohmann::json()},
+          {"within_1_sigma", n ? nlohmann::json(double(c.within_sigma) / n) : nlohmann::json()},
+          {"mean_sigma_m", n ? nlohmann::json(c.sigma_sum / n) : nlohmann::json()},
+          {"eq2_error_at_0.1px_m", eq2(mode, distance)}};
+      const auto paper = paper_error(distance, mode);
+      row["paper_abs_error_m"] = paper ? nlohmann::json(*paper) : nlohmann::json();
+      rows.push_back(row);
+    }
+  }
+  if (opt.json) {
+    for (const auto& r : rows) std::cout << r.dump() << "\n";
+    return 0;
+  }
+  std::cout << "Ranging on the simulated rig, " << opt.trials << " trials per distance, method "
+            << opt.method << " (errors vs the true distance of the person's centre)\n";
+  std::cout << std::setw(7) << "dist m" << std::setw(10) << "mode" << std::setw(8) << "ranged"
+            << std::setw(12) << "mean|err|" << std::setw(10) << "max|err|" << std::setw(10)
+            << "bias" << std::setw(10) << "sigma" << std::setw(8) << "in 1s" << std::setw(9)
+            << "paper" << std::setw(11) << "Eq2@0.1px"
+            << "\n"
+            << std::fixed;
+  for (const auto& r : rows) {
+    auto num = [](const nlohmann::json& v, int p) {
+      std::ostringstream s;
+      if (v.is_null()) return std::string("-");
+      s << std::fixed << std::setprecision(p) << v.get<double>();
+      return s.str();
+    };
+    std::cout << std::setw(7) << std::setprecision(0) << r["distance_m"].get<double>()
+              << std::setw(10) << r["mode"].get<std::string>() << std::setw(8)
+              << (std::to_string(r["ranged"].get<int>()) + "/" + std::to_string(opt.trials))
+              << std::setw(12) << num(r["mean_abs_error_m"], 3) << std::setw(10)
+              << num(r["max_abs_error_m"], 3) << std::setw(10) << num(r["mean_signed_error_m"], 3)
+              << std::setw(10) << num(r["mean_sigma_m"], 3) << std::setw(8)
+              << num(r["within_1_sigma"], 2) << std::setw(9) << num(r["paper_abs_error_m"], 2)
+              << std::setw(11) << num(r["eq2_error_at_0.1px_m"], 3) << "\n";
+  }
+  return 0;
+}
+
+THERMOVIS_COMMAND(
+    "bench ranging",
+    "Table 6 on the simulated rig: ranging error per distance and mode beside the paper's",
+    [](CLI::App& app) -> thermovis::cli::Runner {
+      auto opt = std::make_shared<Options>();
+      app.add_option("--rig", opt->rig, "rig YAML (default: deploy/rigs/paper.yaml)");
+      app.add_option("--distances", opt->distances, "comma-separated distances, m")
+          ->capture_default_str();
+      app.add_option("--trials", opt->trials, "scenes rendered (one person per distance each)")
+          ->capture_default_str();
+      app.add_option("--mode", opt->mode, "all | fused | visible | infrared")
+          ->capture_default_str();
+      app.add_option("--method", opt->method, "matching: ncc | orb | akaze | sift | sgbm")
+          ->capture_default_str();
+      app.add_option("--seed", opt->seed, "random seed (bearings, lighting, noise)")
+          ->capture_default_str();
+      app.add_flag("--json", opt->json,
+                   "JSON rows: distance_m, mode, trials, mean_abs_error_m, "
+                   "max_abs_error_m, within_1_sigma, ...");
+      return [opt] { return run_bench_ranging(*opt); };
+    });
+
+}  // namespace

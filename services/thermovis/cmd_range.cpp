@@ -1,0 +1,202 @@
+// thermovis range: distance, 3-D position and uncertainty of each target box in one frame set of
+// the rig (a folder written by `thermovis scene render`, or any four raw images named
+// visible_left/visible_right/infrared_left/infrared_right .png), one JSON object per target.
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <stdexcept>
+
+#include "command.hpp"
+#include "thermovis/range/stereo_ranger.hpp"
+#include "thermovis/runtime/rig_io.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+namespace rg = thermovis::range;
+
+struct Options {
+  std::string rig;
+  std::string images;
+  std::string boxes;
+  std::string mode = "fused";
+  std::string method = "ncc";
+  double min_distance_m = 2.5;
+  bool surface = false;
+  bool json = false;
+};
+
+cv::Mat read_image(const fs::path& path, int flags) {
+  if (!fs::exists(path)) throw std::runtime_error("missing image " + path.string());
+  cv::Mat image = cv::imread(path.string(), flags);
+  if (image.empty()) throw std::runtime_error("cannot read image " + path.string());
+  return image;
+}
+
+struct BoxRequest {
+  std::string id, cls;
+  std::optional<cv::Rect> rectified;                  // on the mode's left grid
+  std::optional<std::array<double, 4>> raw_visible;   // raw visible_left box
+  std::optional<std::array<double, 4>> raw_infrared;  // raw infrared_left box
+  std::optional<double> truth_distance_m;
+};
+
+std::array<double, 4> box4(const nlohmann::json& j, const std::string& where) {
+  if (!j.is_array() || j.size() != 4)
+    throw std::runtime_error(where + ": a box is [x_min, y_min, x_max, y_max]");
+  std::array<double, 4> b{};
+  for (size_t i = 0; i < 4; ++i) {
+    if (!j[i].is_number()) throw std::runtime_error(where + ": box values must be numbers");
+    b[i] = j[i].get<double>();
+  }
+  return b;
+}
+
+// Boxes file: {"targets": [...]} (truth.json of `scene render` is one) or a bare array; each
+// entry has "id", "class" and either "rectified_box" [x_min, y_min, x_max, y_max] on the left
+// rectified grid of the mode, or "boxes" {"visible_left": [...], "infrared_left": [...]} on raw
+// images; "distance_m" (truth) is used to report the error.
+std::vector<BoxRequest> read_boxes(const fs::path& path) {
+  std::ifstream in(path);
+  if (!in) throw std::runtime_error("cannot open boxes file " + path.string());
+  nlohmann::json j;
+  try {
+    in >> j;
+  } catch (const std::exception& e) {
+    throw std::runtime_error(path.string() + ": not JSON (" + e.what() + ")");
+  }
+  const nlohmann::json& list = j.is_array() ? j : j.value("targets", nlohmann::json::array());
+  if (!list.is_array()) throw std::runtime_error(path.string() + ": 'targets' must be an array");
+  std::vector<BoxRequest> out;
+  for (size_t i = 0; i < list.size(); ++i) {
+    const auto& t = list[i];
+    const std::string where = path.string() + " target " + std::to_string(i);
+    BoxRequest b;
+    b.id = t.value("id", "target" + std::to_string(i));
+    b.cls = t.value("class", "person");
+    if (t.contains("distance_m") && t["distance_m"].is_number())
+      b.truth_distance_m = t["distance_m"].get<double>();
+    if (t.contains("rectified_box")) {
+      const auto r = box4(t["rectified_box"], where);
+      b.rectified = cv::Rect(
+          cv::Point(static_cast<int>(std::floor(r[0])), static_cast<int>(std::floor(r[1]))),
+          cv::Point(static_cast<int>(std::ceil(r[2])) + 1, static_cast<int>(std::ceil(r[3])) + 1));
+    } else if (t.contains("boxes")) {
+      const auto& boxes = t["boxes"];
+      if (boxes.contains("visible_left") && !boxes["visible_left"].is_null())
+        b.raw_visible = box4(boxes["visible_left"], where + " visible_left");
+      if (boxes.contains("infrared_left") && !boxes["infrared_left"].is_null())
+        b.raw_infrared = box4(boxes["infrared_left"], where + " infrared_left");
+    } else {
+      throw std::runtime_error(where + ": needs 'rectified_box' or 'boxes'");
+    }
+    out.push_back(b);
+  }
+  return out;
+}
+
+int run_range(const Options& opt) {
+  const fs::path dir(opt.images);
+  if (!fs::is_directory(dir)) throw std::runtime_error("--images: no folder " + opt.images);
+  const rg::Mode mode = rg::parse_mode(opt.mode);
+  fs::path boxes_path = opt.boxes.empty() ? dir / "truth.json" : fs::path(opt.boxes);
+  if (!fs::exists(boxes_path)) {
+    throw std::runtime_error("no boxes: give --boxes B.json (no truth.json in " + opt.images + ")");
+  }
+  const std::vector<BoxRequest> requests = read_boxes(boxes_path);
+  const auto rig = thermovis::runtime::load_rig(
+      opt.rig.empty() ? thermovis::runtime::default_rig_path() : fs::path(opt.rig));
+  rg::RawFrames raw;
+  raw.visible_left = read_image(dir / "visible_left.png", cv::IMREAD_COLOR);
+  raw.visible_right = read_image(dir / "visible_right.png", cv::IMREAD_COLOR);
+  raw.infrared_left = read_image(dir / "infrared_left.png", cv::IMREAD_UNCHANGED);
+  raw.infrared_right = read_image(dir / "infrared_right.png", cv::IMREAD_UNCHANGED);
+  const rg::StereoRanger ranger(rig);
+  const rg::RectifiedFrames frames = ranger.rectify(raw);
+  rg::RangerOptions options;
+  options.match.method = thermovis::match::parse_method(opt.method);
+  options.min_distance_m = opt.min_distance_m;
+  for (const BoxRequest& request : requests) {
+    cv::Rect box;
+    if (request.rectified) {
+      box = *request.rectified;
+    } else {
+      const auto& raw_box = mode == rg::Mode::infrared ? request.raw_infrared : request.raw_visible;
+      if (raw_box)
+        box = ranger.raw_box_to_rectified(mode, (*raw_box)[0], (*raw_box)[1], (*raw_box)[2],
+                                          (*raw_box)[3]);
+    }
+    options.centre_offset_m = opt.surface ? 0.0 : rg::surface_to_centre_m(request.cls);
+    const rg::RangedTarget t = ranger.range(frames, mode, box, options);
+    const rg::TargetRange& r = t.range;
+    auto number = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); };
+    nlohmann::json out{
+        {"id", request.id},
+        {"class", request.cls},
+        {"mode", rg::mode_name(mode)},
+        {"status", rg::status_name(r.status)},
+        {"message", r.message},
+        {"box", {box.x, box.y, box.x + box.width - 1, box.y + box.height - 1}},
+        {"distance_m", number(r.distance_m)},
+        {"depth_m", number(r.depth_m)},
+        {"sigma_m", number(r.sigma_m)},
+        {"position_m",
+         {number(r.position_m.x()), number(r.position_m.y()), number(r.position_m.z())}},
+        {"frame_of_position", rig.reference},
+        {"disparity_px", number(r.disparity_px)},
+        {"points_used", r.points_used},
+        {"points_valid", r.points_valid},
+        {"matches", r.points_total},
+        {"keypoints", t.matching.keypoints_left}};
+    if (mode == rg::Mode::fused) out["registration_distance_m"] = t.registration_distance_m;
+    if (request.truth_distance_m) {
+      out["truth_distance_m"] = *request.truth_distance_m;
+      out["error_m"] = number(r.distance_m - *request.truth_distance_m);
+    }
+    if (opt.json) {
+      std::cout << out.dump() << "\n";
+    } else {
+      std::cout << std::left << std::setw(14) << request.id << std::right << " " << std::setw(9)
+                << rg::mode_name(mode) << "  ";
+      if (r.status == rg::RangeStatus::ok) {
+        std::cout << std::fixed << std::setprecision(3) << r.distance_m << " m +- " << r.sigma_m
+                  << " (" << r.points_used << "/" << r.points_valid << " points)";
+        if (request.truth_distance_m) std::cout << "  truth " << *request.truth_distance_m << " m";
+      } else {
+        std::cout << rg::status_name(r.status) << ": " << r.message;
+      }
+      std::cout << "\n";
+    }
+  }
+  return 0;
+}
+
+THERMOVIS_COMMAND(
+    "range", "Distance, 3-D position and uncertainty of each target box of one frame set",
+    [](CLI::App& app) -> thermovis::cli::Runner {
+      auto opt = std::make_shared<Options>();
+      app.add_option("--rig", opt->rig, "rig YAML (default: deploy/rigs/paper.yaml)");
+      app.add_option("--images", opt->images,
+                     "folder with visible_left/right.png, infrared_left/right.png "
+                     "(e.g. a frame folder of `thermovis scene render`)")
+          ->required();
+      app.add_option("--boxes", opt->boxes,
+                     "boxes JSON (default: the folder's truth.json); see README");
+      app.add_option("--mode", opt->mode, "fused | visible | infrared")->capture_default_str();
+      app.add_option("--method", opt->method, "matching: ncc | orb | akaze | sift | sgbm")
+          ->capture_default_str();
+      app.add_option("--min-distance", opt->min_distance_m, "nearest target distance searched, m")
+          ->capture_default_str();
+      app.add_flag("--surface", opt->surface,
+                   "report the distance of the target's visible surface (default: "
+                   "its centre, by the class's known depth)");
+      app.add_flag("--json", opt->json, "one JSON object per target");
+      return [opt] { return run_range(*opt); };
+    });
+
+}  // namespace
