@@ -1,10 +1,12 @@
 #include "thermovis/calib/chessboard.hpp"
 
+#include <Eigen/QR>
 #include <algorithm>
 #include <array>
 #include <cctype>
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <numbers>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
@@ -59,13 +61,15 @@ std::vector<Variant> variants(const cv::Mat& grey) {
   return out;
 }
 
-bool run_opencv(const cv::Mat& image, cv::Size pattern, bool sector_based,
+// The sector-based detector's exhaustive search is what finds boards bent by a mirror, but it
+// is slow on large (upscaled, unwrapped) images, where it runs without it.
+bool run_opencv(const cv::Mat& image, cv::Size pattern, bool sector_based, bool exhaustive,
                 std::vector<cv::Point2f>& found) {
   found.clear();
   if (sector_based) {
-    return cv::findChessboardCornersSB(
-        image, pattern, found,
-        cv::CALIB_CB_NORMALIZE_IMAGE | cv::CALIB_CB_EXHAUSTIVE | cv::CALIB_CB_ACCURACY);
+    return cv::findChessboardCornersSB(image, pattern, found,
+                                       cv::CALIB_CB_NORMALIZE_IMAGE | cv::CALIB_CB_ACCURACY |
+                                           (exhaustive ? cv::CALIB_CB_EXHAUSTIVE : 0));
   }
   return cv::findChessboardCorners(image, pattern, found,
                                    cv::CALIB_CB_ADAPTIVE_THRESH | cv::CALIB_CB_NORMALIZE_IMAGE);
@@ -153,76 +157,142 @@ double sample(const cv::Mat& grey, double x, double y) {
          fy * ((1 - fx) * at(y0 + 1, x0) + fx * at(y0 + 1, x0 + 1));
 }
 
-// A checkerboard corner is a saddle: on a small circle around it the intensity is dark, light,
-// dark, light (four sectors) with clear contrast. Detectors that extrapolate the grid (the
-// sector-based one does) can put a "corner" on the board's white border or on an occluder.
+// A checkerboard corner is a saddle: on small circles around it the intensity runs dark, light,
+// dark, light (four sectors, opposite sectors alike) with clear contrast. A point on the
+// board's white border or beside an occluder fails on at least one of the two circles.
 bool is_saddle(const cv::Mat& grey, const Eigen::Vector2d& p, double spacing) {
-  for (double fraction : {0.25, 0.4}) {
-    const double radius = std::clamp(fraction * spacing, 1.5, 10.0);
-    constexpr int kSamples = 48;
+  for (double fraction : {0.2, 0.35}) {
+    const double radius = std::clamp(fraction * spacing, 1.5, 12.0);
+    constexpr int kSamples = 64;
     std::array<double, kSamples> ring{};
     double lo = 1e9, hi = -1e9;
     for (int k = 0; k < kSamples; ++k) {
       const double a = 2.0 * std::numbers::pi * k / kSamples;
-      ring[static_cast<size_t>(k)] =
-          sample(grey, p.x() + radius * std::cos(a), p.y() + radius * std::sin(a));
-      if (ring[static_cast<size_t>(k)] < 0) return false;
-      lo = std::min(lo, ring[static_cast<size_t>(k)]);
-      hi = std::max(hi, ring[static_cast<size_t>(k)]);
+      const double v = sample(grey, p.x() + radius * std::cos(a), p.y() + radius * std::sin(a));
+      if (v < 0) return false;
+      ring[static_cast<size_t>(k)] = v;
+      lo = std::min(lo, v);
+      hi = std::max(hi, v);
     }
-    if (hi - lo < 15.0) return false;
+    if (hi - lo < 20.0) return false;
     const double mid = 0.5 * (lo + hi);
-    int changes = 0;
-    for (int k = 0; k < kSamples; ++k)
-      changes += (ring[static_cast<size_t>(k)] > mid) !=
-                 (ring[static_cast<size_t>((k + 1) % kSamples)] > mid);
-    if (changes == 4) return true;
-  }
-  return false;
-}
-
-// Corners that are not saddles are predicted again from their grid neighbours (linear
-// extrapolation along the row or column) and refined with a small window; false when one
-// cannot be repaired (the detection is then rejected).
-bool repair_corners(const cv::Mat& grey, cv::Size grid, std::vector<Eigen::Vector2d>& corners) {
-  auto idx = [&](int r, int c) { return static_cast<size_t>(r * grid.width + c); };
-  const cv::TermCriteria criteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 1e-3);
-  for (int r = 0; r < grid.height; ++r) {
-    for (int c = 0; c < grid.width; ++c) {
-      const double spacing = neighbour_distance(corners, grid, r, c);
-      if (is_saddle(grey, corners[idx(r, c)], spacing)) continue;
-      bool fixed = false;
-      const int dr[] = {0, 0, -1, 1}, dc[] = {-1, 1, 0, 0};
-      for (int k = 0; k < 4 && !fixed; ++k) {
-        const int r1 = r + dr[k], c1 = c + dc[k], r2 = r + 2 * dr[k], c2 = c + 2 * dc[k];
-        if (r2 < 0 || c2 < 0 || r2 >= grid.height || c2 >= grid.width) continue;
-        const Eigen::Vector2d predicted = 2.0 * corners[idx(r1, c1)] - corners[idx(r2, c2)];
-        const double step = (corners[idx(r1, c1)] - corners[idx(r2, c2)]).norm();
-        const int half = std::clamp(static_cast<int>(std::lround(0.25 * step)), 2, 6);
-        std::vector<cv::Point2f> one{
-            cv::Point2f(static_cast<float>(predicted.x()), static_cast<float>(predicted.y()))};
-        if (one[0].x < half + 1 || one[0].y < half + 1 || one[0].x > grey.cols - half - 2 ||
-            one[0].y > grey.rows - half - 2)
-          continue;
-        cv::cornerSubPix(grey, one, {half, half}, {-1, -1}, criteria);
-        const Eigen::Vector2d candidate(one[0].x, one[0].y);
-        if ((candidate - predicted).norm() < 0.4 * step && is_saddle(grey, candidate, step)) {
-          corners[idx(r, c)] = candidate;
-          fixed = true;
-        }
-      }
-      if (!fixed) return false;
+    int changes = 0, opposite_agree = 0;
+    for (int k = 0; k < kSamples; ++k) {
+      const bool here = ring[static_cast<size_t>(k)] > mid;
+      changes += here != (ring[static_cast<size_t>((k + 1) % kSamples)] > mid);
+      opposite_agree += here == (ring[static_cast<size_t>((k + kSamples / 2) % kSamples)] > mid);
     }
+    if (changes != 4 || opposite_agree < 0.8 * kSamples) return false;
   }
   return true;
+}
+
+// Where the grid predicts corner (r, c): a quadratic surface image(r, c) fitted by least
+// squares to the corners within two grid steps (bent rows and columns of fisheye and
+// catadioptric images are locally quadratic), leaving out (r, c) and corners marked bad.
+bool predict_from_neighbours(const std::vector<Eigen::Vector2d>& corners, cv::Size grid,
+                             const std::vector<bool>& bad, int r, int c, Eigen::Vector2d& out) {
+  std::vector<Eigen::Matrix<double, 6, 1>> rows;
+  std::vector<Eigen::Vector2d> targets;
+  for (int rr = std::max(0, r - 2); rr <= std::min(grid.height - 1, r + 2); ++rr) {
+    for (int cc = std::max(0, c - 2); cc <= std::min(grid.width - 1, c + 2); ++cc) {
+      const size_t k = static_cast<size_t>(rr * grid.width + cc);
+      if ((rr == r && cc == c) || bad[k]) continue;
+      const double y = rr - r, x = cc - c;
+      Eigen::Matrix<double, 6, 1> row;
+      row << 1, x, y, x * x, x * y, y * y;
+      rows.push_back(row);
+      targets.push_back(corners[k]);
+    }
+  }
+  if (rows.size() < 8) return false;
+  Eigen::MatrixXd A(rows.size(), 6);
+  Eigen::MatrixXd B(rows.size(), 2);
+  for (size_t i = 0; i < rows.size(); ++i) {
+    A.row(static_cast<Eigen::Index>(i)) = rows[i].transpose();
+    B.row(static_cast<Eigen::Index>(i)) = targets[i].transpose();
+  }
+  Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(A);
+  if (qr.rank() < 6) return false;
+  const Eigen::MatrixXd coeff = qr.solve(B);
+  out = coeff.row(0).transpose();  // the surface at (0, 0) = (r, c)
+  return out.allFinite();
+}
+
+// Corners that are not saddles or disagree with their neighbours' prediction (detectors that
+// extrapolate the grid, as the sector-based one does, can put a corner on the board's white
+// border or on an occluder) are predicted again from the good ones and refined with a small
+// window; those that still fail are marked missing (NaN). Returns how many are missing.
+int repair_corners(const cv::Mat& grey, cv::Size grid, std::vector<Eigen::Vector2d>& corners) {
+  const size_t n = corners.size();
+  const std::vector<Eigen::Vector2d> detected = corners;
+  std::vector<bool> bad(n, false);
+  auto spacing_at = [&](int r, int c) { return neighbour_distance(detected, grid, r, c); };
+  auto tolerance = [&](int r, int c) { return std::max(1.5, 0.2 * spacing_at(r, c)); };
+  for (int r = 0; r < grid.height; ++r)
+    for (int c = 0; c < grid.width; ++c)
+      if (!is_saddle(grey, detected[static_cast<size_t>(r * grid.width + c)], spacing_at(r, c)))
+        bad[static_cast<size_t>(r * grid.width + c)] = true;
+  // Mark the worst offender first, so one bad corner does not condemn its neighbours.
+  for (size_t round = 0; round < n; ++round) {
+    double worst_ratio = 1.0;
+    size_t worst = n;
+    for (int r = 0; r < grid.height; ++r) {
+      for (int c = 0; c < grid.width; ++c) {
+        const size_t k = static_cast<size_t>(r * grid.width + c);
+        Eigen::Vector2d predicted;
+        if (bad[k] || !predict_from_neighbours(detected, grid, bad, r, c, predicted)) continue;
+        const double ratio = (predicted - detected[k]).norm() / tolerance(r, c);
+        if (ratio > worst_ratio) {
+          worst_ratio = ratio;
+          worst = k;
+        }
+      }
+    }
+    if (worst == n) break;
+    bad[worst] = true;
+  }
+  const cv::TermCriteria criteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 1e-3);
+  int missing = 0;
+  for (int r = 0; r < grid.height; ++r) {
+    for (int c = 0; c < grid.width; ++c) {
+      const size_t k = static_cast<size_t>(r * grid.width + c);
+      if (!bad[k]) continue;
+      bool repaired = false;
+      Eigen::Vector2d predicted;
+      if (predict_from_neighbours(detected, grid, bad, r, c, predicted)) {
+        const double spacing = spacing_at(r, c);
+        const int half = std::clamp(static_cast<int>(std::lround(0.25 * spacing)), 2, 5);
+        std::vector<cv::Point2f> one{
+            cv::Point2f(static_cast<float>(predicted.x()), static_cast<float>(predicted.y()))};
+        if (one[0].x >= half + 1 && one[0].y >= half + 1 && one[0].x <= grey.cols - half - 2 &&
+            one[0].y <= grey.rows - half - 2) {
+          cv::cornerSubPix(grey, one, {half, half}, {-1, -1}, criteria);
+          const Eigen::Vector2d refined(one[0].x, one[0].y);
+          if ((refined - predicted).norm() <= tolerance(r, c) &&
+              is_saddle(grey, refined, spacing)) {
+            corners[k] = refined;
+            repaired = true;
+          }
+        }
+      }
+      if (!repaired) {
+        corners[k] = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
+        ++missing;
+      }
+    }
+  }
+  return missing;
 }
 
 bool finish(const cv::Mat& grey, cv::Size pattern, std::vector<Eigen::Vector2d> corners,
             const std::string& method, ChessboardDetection& out) {
   refine_corners(grey, pattern, corners);
-  if (!repair_corners(grey, pattern, corners)) return false;
   if (!plausible_grid(corners, pattern, grey.size())) return false;
   canonical_order(pattern, corners);
+  const int missing = repair_corners(grey, pattern, corners);
+  if (missing > static_cast<int>(corners.size()) / 10) return false;
+  out.missing = missing;
   out.found = true;
   out.corners = std::move(corners);
   out.method = method;
@@ -294,7 +364,7 @@ ChessboardDetection detect_chessboard(const cv::Mat& image, cv::Size pattern,
 
   for (const auto& v : variants(grey)) {
     for (bool sector_based : {false, true}) {
-      if (!run_opencv(v.image, pattern, sector_based, found)) continue;
+      if (!run_opencv(v.image, pattern, sector_based, v.scale == 1.0, found)) continue;
       std::vector<Eigen::Vector2d> corners;
       for (const auto& p : found)
         corners.emplace_back((p.x + 0.5) * v.scale - 0.5, (p.y + 0.5) * v.scale - 0.5);
@@ -312,7 +382,7 @@ ChessboardDetection detect_chessboard(const cv::Mat& image, cv::Size pattern,
     for (double oversample : {1.0, 2.0}) {
       const PolarView pv = polar_unwrap(equalised, radius_fraction * short_side, oversample);
       for (bool sector_based : {false, true}) {
-        if (!run_opencv(pv.image, pattern, sector_based, found)) continue;
+        if (!run_opencv(pv.image, pattern, sector_based, false, found)) continue;
         std::vector<Eigen::Vector2d> corners;
         for (const auto& p : found) corners.push_back(from_polar(pv, p));
         if (finish(grey, pattern, std::move(corners),

@@ -139,7 +139,7 @@ bool partial_extrinsics(const std::vector<Eigen::Vector3d>& board,
 
 // Solves the polynomial (normalised b0, b2..bN) and each view's t3 by linear least squares.
 // Returns false when the system is rank deficient.
-bool solve_polynomial(const std::vector<Eigen::Vector3d>& board,
+bool solve_polynomial(const std::vector<std::vector<Eigen::Vector3d>>& boards,
                       const std::vector<std::vector<Eigen::Vector2d>>& uv,
                       const std::vector<const ExtrinsicCandidate*>& ext, int degree,
                       double radius_scale, std::vector<double>& b, std::vector<double>& t3,
@@ -147,12 +147,16 @@ bool solve_polynomial(const std::vector<Eigen::Vector3d>& board,
   const int views = static_cast<int>(uv.size());
   const int npoly = degree;  // b0, b2..bN
   const int unknowns = npoly + views;
-  const int n = static_cast<int>(board.size());
-  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(2 * n * views, unknowns);
-  Eigen::VectorXd rhs(2 * n * views);
+  int total = 0;
+  for (const auto& b_i : boards) total += static_cast<int>(b_i.size());
+  Eigen::MatrixXd A = Eigen::MatrixXd::Zero(2 * total, unknowns);
+  Eigen::VectorXd rhs(2 * total);
+  int row = 0;
   for (int i = 0; i < views; ++i) {
     const auto& R = ext[static_cast<size_t>(i)]->R_ocam;
-    for (int j = 0; j < n; ++j) {
+    const auto& board = boards[static_cast<size_t>(i)];
+    const int n = static_cast<int>(board.size());
+    for (int j = 0; j < n; ++j, row += 2) {
       const double X = board[static_cast<size_t>(j)].x(), Y = board[static_cast<size_t>(j)].y();
       const double u = uv[static_cast<size_t>(i)][static_cast<size_t>(j)].x();
       const double v = uv[static_cast<size_t>(i)][static_cast<size_t>(j)].y();
@@ -160,7 +164,6 @@ bool solve_polynomial(const std::vector<Eigen::Vector3d>& board,
       const double Aj = R(1, 0) * X + R(1, 1) * Y + ext[static_cast<size_t>(i)]->t2;
       const double Cj = R(0, 0) * X + R(0, 1) * Y + ext[static_cast<size_t>(i)]->t1;
       const double third = R(2, 0) * X + R(2, 1) * Y;
-      const int row = 2 * (i * n + j);
       double power = 1.0;
       for (int k = 0; k < npoly; ++k) {
         A(row, k) = Aj * power;
@@ -215,14 +218,21 @@ LinearSolution linear_solution(const std::vector<Eigen::Vector3d>& board,
                                double xc, double yc, int degree, double radius_scale) {
   LinearSolution sol;
   std::vector<std::vector<Eigen::Vector2d>> uv;
+  std::vector<std::vector<Eigen::Vector3d>> boards;
   std::vector<std::array<ExtrinsicCandidate, 2>> candidates;
   for (int i : which) {
     std::vector<Eigen::Vector2d> centred;
-    for (const auto& p : views[static_cast<size_t>(i)].corners)
-      centred.emplace_back(p.y() - xc, p.x() - yc);
+    std::vector<Eigen::Vector3d> seen;
+    const auto& corners = views[static_cast<size_t>(i)].corners;
+    for (size_t j = 0; j < corners.size(); ++j) {
+      if (!corners[j].allFinite()) continue;
+      centred.emplace_back(corners[j].y() - xc, corners[j].x() - yc);
+      seen.push_back(board[j]);
+    }
     std::array<ExtrinsicCandidate, 2> cand;
-    if (!partial_extrinsics(board, centred, cand)) return sol;
+    if (!partial_extrinsics(seen, centred, cand)) return sol;
     uv.push_back(std::move(centred));
+    boards.push_back(std::move(seen));
     candidates.push_back(cand);
   }
   // Each view's tilt sign: the candidate whose single-view polynomial fit is best (a0 < 0).
@@ -234,7 +244,8 @@ LinearSolution linear_solution(const std::vector<Eigen::Vector3d>& board,
     for (const auto& cand : candidates[i]) {
       std::vector<double> b, t3;
       double residual = 0.0;
-      if (!solve_polynomial(board, {uv[i]}, {&cand}, single_degree, radius_scale, b, t3, &residual))
+      if (!solve_polynomial({boards[i]}, {uv[i]}, {&cand}, single_degree, radius_scale, b, t3,
+                            &residual))
         continue;
       if (b[0] >= 0) residual += 1e6;
       if (residual < best) {
@@ -245,7 +256,7 @@ LinearSolution linear_solution(const std::vector<Eigen::Vector3d>& board,
     chosen.push_back(pick);
   }
   std::vector<double> b, t3;
-  if (!solve_polynomial(board, uv, chosen, degree, radius_scale, b, t3)) return sol;
+  if (!solve_polynomial(boards, uv, chosen, degree, radius_scale, b, t3)) return sol;
   if (!(b[0] < 0)) return sol;
   sol.intrinsics.assign(kIntrinsicsSize, 0.0);
   sol.intrinsics[0] = xc;
@@ -313,9 +324,11 @@ void check_views(const std::vector<View>& views, const BoardSpec& board, cv::Siz
                                   std::to_string(board.inner_corners.width) + "x" +
                                   std::to_string(board.inner_corners.height) + " board has " +
                                   std::to_string(board.corner_count()));
-    for (const auto& p : v.corners)
-      if (!p.allFinite())
-        throw std::invalid_argument("calibration: view " + v.name + " has a non-finite corner");
+    const auto seen = std::count_if(v.corners.begin(), v.corners.end(),
+                                    [](const Eigen::Vector2d& p) { return p.allFinite(); });
+    if (2 * seen < static_cast<long>(v.corners.size()))
+      throw std::invalid_argument("calibration: view " + v.name + " has only " +
+                                  std::to_string(seen) + " of its corners");
   }
 }
 
@@ -332,6 +345,7 @@ std::vector<double> reprojection_errors(const camera::TaylorCamera& camera,
   const auto pts = board.points();
   std::vector<double> err(pts.size(), std::numeric_limits<double>::quiet_NaN());
   for (size_t j = 0; j < pts.size() && j < view.corners.size(); ++j) {
+    if (!view.corners[j].allFinite()) continue;
     Eigen::Vector2d px;
     if (project_board_point(camera, T_cam_board, pts[j], px))
       err[j] = (px - view.corners[j]).norm();
@@ -345,6 +359,7 @@ namespace detail {
 void add_view(ceres::Problem& problem, const std::vector<Eigen::Vector3d>& board, const View& view,
               double radius_scale, double robust_loss_px, double* intr, double* pose) {
   for (size_t j = 0; j < board.size(); ++j) {
+    if (!view.corners[j].allFinite()) continue;  // not seen
     auto* cost = new ceres::AutoDiffCostFunction<CornerResidual, 2, kIntrinsicsSize, kPoseSize>(
         new CornerResidual{board[j], view.corners[j], radius_scale});
     ceres::LossFunction* loss = robust_loss_px > 0 ? new ceres::HuberLoss(robust_loss_px) : nullptr;
@@ -400,6 +415,8 @@ TaylorCalibration calibrate_taylor(const std::vector<View>& views, const BoardSp
   std::vector<double> intr = lin.intrinsics;
   auto poses = lin.poses;
 
+  // Corners left out of the final fit (robust outliers), per view.
+  std::vector<View> fitted = views;
   if (options.refine) {
     for (int round = 0; round < 3; ++round) {
       ceres::Problem problem;
@@ -424,6 +441,35 @@ TaylorCalibration calibrate_taylor(const std::vector<View>& views, const BoardSp
       if (kept.size() == used.size() || kept.size() < 3) break;
       used = kept;
     }
+    // Final plain least-squares polish over the inlier corners (error under
+    // max(outlier_corner_px, 5 x RMS) after the robust fit): the robust loss has done its job of
+    // finding outliers, and the result then minimises the RMS it reports.
+    if (options.robust_loss_px > 0) {
+      const double rms_all = rms_of(intr, radius_scale, poses, pts, views, used);
+      const double corner_limit = std::max(options.outlier_corner_px, 5.0 * rms_all);
+      ceres::Problem problem;
+      for (int i : used) {
+        auto& view = fitted[static_cast<size_t>(i)];
+        for (size_t j = 0; j < pts.size(); ++j) {
+          if (!view.corners[j].allFinite()) continue;
+          detail::CornerResidual res{pts[j], view.corners[j], radius_scale};
+          double r[2];
+          if (!res(intr.data(), poses[static_cast<size_t>(i)].data(), r) ||
+              std::hypot(r[0], r[1]) > corner_limit) {
+            view.corners[j] = Eigen::Vector2d::Constant(std::numeric_limits<double>::quiet_NaN());
+            ++out.corners_rejected;
+          }
+        }
+        detail::add_view(problem, pts, view, radius_scale, 0.0, intr.data(),
+                         poses[static_cast<size_t>(i)].data());
+      }
+      detail::constrain_intrinsics(problem, intr.data(), degree, options.refine_centre);
+      ceres::Solver::Summary summary;
+      ceres::Solve(detail::solver_options(options.threads), &problem, &summary);
+      out.iterations += static_cast<int>(summary.iterations.size());
+      if (!summary.IsSolutionUsable())
+        throw std::runtime_error("calibration: refinement failed: " + summary.message);
+    }
   }
 
   out.intrinsics = detail::unpack_intrinsics(intr.data(), radius_scale, degree, image_size);
@@ -441,10 +487,12 @@ TaylorCalibration calibrate_taylor(const std::vector<View>& views, const BoardSp
     ve.T_cam_board = detail::unpack_pose(poses[i].data());
     double s = 0.0;
     int nvalid = 0;
-    for (double e : reprojection_errors(cam, ve.T_cam_board, board, views[i])) {
-      if (!std::isfinite(e)) {
-        e = std::numeric_limits<double>::infinity();
-      }
+    const auto errors = reprojection_errors(cam, ve.T_cam_board, board, fitted[i]);
+    for (size_t j = 0; j < errors.size(); ++j) {
+      if (!fitted[i].corners[j].allFinite()) continue;  // not seen or rejected
+      // Seen but not projectable counts as infinitely wrong.
+      const double e =
+          std::isfinite(errors[j]) ? errors[j] : std::numeric_limits<double>::infinity();
       s += e * e;
       ++nvalid;
       ve.max_px = std::max(ve.max_px, e);

@@ -45,6 +45,29 @@ UrbanReference load_urban_reference(const std::filesystem::path& set_folder,
   intr.e = model.at("e").get<double>();
   intr.pol = model.at("ss").get<std::vector<double>>();
   ref.rms_2d_px = m.at("rms").get<double>() * (swapped ? std::sqrt(2.0) : 1.0);
+
+  // Reproject the stored corners: p_ocam = [r1 r2 t] (Xt, Yt, 1); our camera frame is
+  // (x, y, z) = (v, u, -w) of OCamCalib's.
+  const camera::TaylorCamera cam(ref.intrinsics);
+  const auto Xt = m.at("board").at("Xt_mm").get<std::vector<double>>();
+  const auto Yt = m.at("board").at("Yt_mm").get<std::vector<double>>();
+  double sum = 0.0;
+  size_t count = 0;
+  for (size_t i = 0; i < ref.views.size(); ++i) {
+    const auto RR = m.at("per_image").at(i).at("RRfin_r1_r2_t");
+    for (size_t k = 0; k < Xt.size(); ++k) {
+      Eigen::Vector3d p;
+      for (int a = 0; a < 3; ++a)
+        p[a] = RR.at(a).at(0).get<double>() * Xt[k] + RR.at(a).at(1).get<double>() * Yt[k] +
+               RR.at(a).at(2).get<double>();
+      Eigen::Vector2d px;
+      if (!cam.project(Eigen::Vector3d(p[1], p[0], -p[2]), px))
+        throw std::runtime_error("reference corner not projectable in " + path.string());
+      sum += (px - ref.views[i].corners[k]).squaredNorm();
+      ++count;
+    }
+  }
+  ref.unweighted_rms_2d_px = std::sqrt(sum / static_cast<double>(count));
   return ref;
 }
 
@@ -81,10 +104,15 @@ GridAgreement compare_grids(cv::Size grid_a, const std::vector<Eigen::Vector2d>&
         std::vector<double> d;
         size_t worst = 0;
         for (size_t k = 0; k < pa.size(); ++k) {
+          if (!pa[k].allFinite()) continue;  // a corner the detector left out
+          if (d.empty() || (pa[k] - b[k]).norm() > (pa[worst] - b[worst]).norm()) worst = k;
           d.push_back((pa[k] - b[k]).norm());
-          if (d.back() > d[worst]) worst = k;
         }
-        const GridAgreement here{0.0, d[worst], pa[worst], b[worst]};
+        if (d.empty()) continue;
+        GridAgreement here{0.0, (pa[worst] - b[worst]).norm(), 0.0, pa[worst], b[worst]};
+        here.within_1px = static_cast<double>(std::count_if(d.begin(), d.end(),
+                                                            [](double x) { return x <= 1.0; })) /
+                          static_cast<double>(d.size());
         std::sort(d.begin(), d.end());
         if (d[d.size() / 2] < best.median_px) {
           best = here;

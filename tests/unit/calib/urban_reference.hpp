@@ -17,6 +17,9 @@ struct UrbanReference {
   std::vector<calib::View> views;       // their corners in board order, 0-based (x=col, y=row)
   camera::TaylorIntrinsics intrinsics;  // 0-based centre (row, column)
   double rms_2d_px = 0.0;               // stored rms converted to 2-D RMS
+  // Plain (unweighted) 2-D RMS of the stored model and poses over the stored corners, by our
+  // own world2cam: equals rms_2d_px except for the Huber-weighted robust method.
+  double unweighted_rms_2d_px = 0.0;
 };
 
 // `set_folder` is data/calib/ocamcalib_<set>; `method` e.g. "urban_ba_subpixel".
@@ -28,6 +31,7 @@ UrbanReference load_urban_reference(const std::filesystem::path& set_folder,
 struct GridAgreement {
   double median_px = 0.0;
   double max_px = 0.0;
+  double within_1px = 0.0;  // fraction of the corners of a within 1 px of b's
   Eigen::Vector2d worst_a = Eigen::Vector2d::Zero();  // the pair that differs most
   Eigen::Vector2d worst_b = Eigen::Vector2d::Zero();
 };

@@ -25,8 +25,9 @@ cv::Size parse_board_size(const std::string& text);
 
 // The corners found in one image, in board order.
 struct View {
-  std::string name;                      // image file name (for messages and reports)
-  std::vector<Eigen::Vector2d> corners;  // (x = column, y = row), px, 0-based pixel centres
+  std::string name;  // image file name (for messages and reports)
+  // (x = column, y = row), px, 0-based pixel centres; NaN = a corner not seen (left out).
+  std::vector<Eigen::Vector2d> corners;
 };
 
 }  // namespace thermovis::calib

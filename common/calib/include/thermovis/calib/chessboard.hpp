@@ -12,7 +12,10 @@
 //      close to a perspective view), corners mapped back to the raw image.
 // Every result is refined to sub-pixel in the raw image with a window sized per corner from the
 // local corner spacing, checked for consistency (no merged corners, regular neighbour spacing),
-// and put into a canonical order (see canonical_order()).
+// and put into a canonical order (see canonical_order()). Each corner must then be a saddle of
+// the image and agree with a quadratic fit of its grid neighbours; one that fails is predicted
+// from its neighbours and refined again, or else marked missing (NaN; at most 10 % of the
+// corners, else the detection is rejected).
 #include <opencv2/core/mat.hpp>
 #include <string>
 #include <vector>
@@ -23,7 +26,8 @@ namespace thermovis::calib {
 
 struct ChessboardDetection {
   bool found = false;
-  std::vector<Eigen::Vector2d> corners;  // board order, (x = column, y = row), px
+  std::vector<Eigen::Vector2d> corners;  // board order, (x = column, y = row), px; NaN = missing
+  int missing = 0;                       // corners that failed the checks (at most 10 %)
   std::string method;                    // which detector/preprocessing succeeded
 };
 

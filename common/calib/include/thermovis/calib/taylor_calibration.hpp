@@ -13,7 +13,9 @@
 //    Rotation gauge: the antisymmetric part of [[c, d], [e, 1]] is, to first order, an image
 //    rotation that the board poses absorb exactly (the model is radially symmetric), so it is
 //    pinned: d = e is estimated as one parameter. Views whose error stays far above the rest
-//    (wrong detections) are dropped and the refinement repeated.
+//    (wrong detections) are dropped and the refinement repeated; then corners whose error is
+//    far above the RMS (occluded or mislocated) are left out and a last plain least-squares
+//    round minimises exactly the RMS that is reported.
 //
 // Errors: rms_2d_px = sqrt(mean over all corners of |observed - projected|^2), the 2-D
 // (Euclidean) distance in px; OCamCalib's own "rms". Urban 2015's "rms" is per coordinate
@@ -34,6 +36,7 @@ struct TaylorCalibrationOptions {
   bool refine = true;                // false: linear initialisation only
   bool refine_centre = true;         // false: keep the centre of the linear search
   double outlier_view_rms_px = 3.0;  // drop views with rms over max(this, 4 x median)
+  double outlier_corner_px = 2.0;    // leave out corners with error over max(this, 5 x RMS)
   int threads = 1;                   // Ceres threads
 };
 
@@ -52,6 +55,7 @@ struct TaylorCalibration {
   std::vector<ViewError> views;         // in input order
   int images_used = 0;
   int corners_used = 0;
+  int corners_rejected = 0;       // robust outliers left out of the final fit and the RMS
   double rms_2d_px = 0.0;         // over the corners of used views (definition above)
   double linear_rms_2d_px = 0.0;  // of the linear initialisation, same views
   int iterations = 0;             // Ceres iterations (all rounds)
@@ -69,7 +73,8 @@ TaylorCalibration calibrate_taylor(const std::vector<View>& views, const BoardSp
 bool project_board_point(const camera::TaylorCamera& camera, const Eigen::Isometry3d& T_cam_board,
                          const Eigen::Vector3d& board_point, Eigen::Vector2d& pixel);
 
-// 2-D errors (px) of one view's corners under a model and pose (NaN where not projectable).
+// 2-D errors (px) of one view's corners under a model and pose (NaN where the corner is
+// missing or not projectable).
 std::vector<double> reprojection_errors(const camera::TaylorCamera& camera,
                                         const Eigen::Isometry3d& T_cam_board,
                                         const BoardSpec& board, const View& view);
