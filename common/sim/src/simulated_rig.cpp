@@ -16,8 +16,9 @@ using detail::Hit;
 using detail::PlacedTarget;
 
 constexpr double kPi = 3.14159265358979323846;
-constexpr int kSuperSamples = 4;  // per axis, at edges: coverage resolved to 1/16 of a pixel
-constexpr int kRegionPad = 2;     // px around a moving target's projected box
+constexpr int kSuperSamples = 4;        // per axis, at static edges: coverage to 1/16 of a pixel
+constexpr int kMovingSuperSamples = 3;  // per axis, at moving targets' edges (per frame: cheaper)
+constexpr int kRegionPad = 2;           // px around a moving target's projected box
 // Noise: one plane of normal samples N(0, 1) stored as round(16 z) in int8 (|z| < 8), read
 // at a pseudo-random offset per frame and camera in [0, kNoiseMargin).
 constexpr std::size_t kNoiseMargin = std::size_t{1} << 20;
@@ -161,18 +162,15 @@ struct SimulatedRig::Impl {
     return {k * s.reflectance_bgr.x(), k * s.reflectance_bgr.y(), k * s.reflectance_bgr.z()};
   }
 
-  // Everything along one ray: the static scene, then the given moving targets.
-  Linear trace(const CameraCache& c, const Eigen::Vector3d& d,
-               const std::vector<PlacedTarget>* moving, Hit& hit) const {
+  // The static scene along one ray.
+  Linear trace_static(const CameraCache& c, const Eigen::Vector3d& d, Hit& hit) const {
     world->trace_background(c.centre, d, hit);
     detail::World::trace_targets(static_targets, c.centre, d, hit);
-    if (moving != nullptr) detail::World::trace_targets(*moving, c.centre, d, hit);
     return radiance(c, hit, d);
   }
 
-  // Mean over kSuperSamples^2 rays spread over the pixel's area.
-  Linear supersample(const CameraCache& c, int x, int y,
-                     const std::vector<PlacedTarget>* moving) const {
+  // Mean of the static scene over kSuperSamples^2 rays spread over the pixel's area.
+  Linear supersample_static(const CameraCache& c, int x, int y) const {
     Linear sum(0.0f, 0.0f, 0.0f);
     int count = 0;
     for (int j = 0; j < kSuperSamples; ++j) {
@@ -182,11 +180,68 @@ struct SimulatedRig::Impl {
         Eigen::Vector3d ray;
         if (!c.camera->model->unproject(px, ray)) continue;
         Hit hit;
-        sum += trace(c, c.R_world_cam * ray.normalized(), moving, hit);
+        sum += trace_static(c, c.R_world_cam * ray.normalized(), hit);
         ++count;
       }
     }
     return count > 0 ? sum * (1.0f / static_cast<float>(count)) : sum;
+  }
+
+  // The ray through image point (px, py), bilinear between the precomputed pixel rays (the ray
+  // field is smooth: the error is far below a hundredth of a pixel); exact where a neighbour
+  // has no ray.
+  Eigen::Vector3d ray_at(const CameraCache& c, double px, double py) const {
+    const int x0 = std::clamp(static_cast<int>(std::floor(px)), 0, c.size.width - 2);
+    const int y0 = std::clamp(static_cast<int>(std::floor(py)), 0, c.size.height - 2);
+    const float fx = static_cast<float>(px - x0), fy = static_cast<float>(py - y0);
+    const cv::Vec3f& a = c.rays.at<cv::Vec3f>(y0, x0);
+    const cv::Vec3f& b = c.rays.at<cv::Vec3f>(y0, x0 + 1);
+    const cv::Vec3f& d = c.rays.at<cv::Vec3f>(y0 + 1, x0);
+    const cv::Vec3f& e = c.rays.at<cv::Vec3f>(y0 + 1, x0 + 1);
+    const cv::Vec3f r = (a * (1.0f - fx) + b * fx) * (1.0f - fy) + (d * (1.0f - fx) + e * fx) * fy;
+    if (std::isnan(r[0])) {
+      Eigen::Vector3d ray;
+      if (!c.camera->model->unproject(Eigen::Vector2d(px, py), ray))
+        return Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
+      return c.R_world_cam * ray.normalized();
+    }
+    return Eigen::Vector3d(r[0], r[1], r[2]).normalized();
+  }
+
+  // Anti-aliasing of a moving target's edge pixel: kMovingSuperSamples^2 rays against the moving
+  // targets; the rays that miss them see the static scene, whose pixel value (already
+  // anti-aliased) stands for it. Each target part is shaded once per pixel.
+  Linear supersample_moving(const CameraCache& c, int x, int y,
+                            const std::vector<detail::PreparedTarget>& moving,
+                            const Linear& static_value) const {
+    const double depth = c.static_depth.at<float>(y, x);
+    Linear sum(0.0f, 0.0f, 0.0f);
+    int count = 0;
+    int shaded_texture = -1;
+    std::uint16_t shaded_id = detail::kNoRayId;
+    Linear shaded(0.0f, 0.0f, 0.0f);
+    for (int j = 0; j < kMovingSuperSamples; ++j) {
+      for (int i = 0; i < kMovingSuperSamples; ++i) {
+        const Eigen::Vector3d d = ray_at(c, x - 0.5 + (i + 0.5) / kMovingSuperSamples,
+                                         y - 0.5 + (j + 0.5) / kMovingSuperSamples);
+        if (std::isnan(d.x())) continue;
+        ++count;
+        Hit hit;
+        hit.t = depth;
+        detail::World::trace_targets(moving, d, hit);
+        if (hit.texture < 0) {
+          sum += static_value;
+          continue;
+        }
+        if (hit.id != shaded_id || hit.texture != shaded_texture) {
+          shaded = radiance(c, hit, d);
+          shaded_id = hit.id;
+          shaded_texture = hit.texture;
+        }
+        sum += shaded;
+      }
+    }
+    return count > 0 ? sum * (1.0f / static_cast<float>(count)) : static_value;
   }
 
   void build_camera(Slot slot, const camera::RigCamera& cam) {
@@ -225,7 +280,7 @@ struct SimulatedRig::Impl {
           r = cv::Vec3f(static_cast<float>(d.x()), static_cast<float>(d.y()),
                         static_cast<float>(d.z()));
           Hit hit;
-          set_linear(c.static_linear, y, x, trace(c, d, nullptr, hit));
+          set_linear(c.static_linear, y, x, trace_static(c, d, hit));
           c.static_depth.at<float>(y, x) = static_cast<float>(hit.t);
           c.static_id.at<std::uint16_t>(y, x) = hit.id;
         }
@@ -236,7 +291,7 @@ struct SimulatedRig::Impl {
       for (int y = rows.start; y < rows.end; ++y) {
         for (int x = 0; x < c.size.width; ++x) {
           if (on_edge(c.static_id, y, x, c.static_id, cv::Point(0, 0)))
-            set_linear(c.static_linear, y, x, supersample(c, x, y, nullptr));
+            set_linear(c.static_linear, y, x, supersample_static(c, x, y));
         }
       }
     });
@@ -393,33 +448,53 @@ struct SimulatedRig::Impl {
     return pts;
   }
 
-  // The image rectangle a placed target may cover in camera c (with a margin), or an empty one.
-  cv::Rect target_region(const CameraCache& c, const PlacedTarget& pt) const {
-    const std::size_t index = pt.target->id - detail::kFirstTargetId;
-    double x0 = std::numeric_limits<double>::infinity(), y0 = x0, x1 = -x0, y1 = -x0;
-    bool any_invalid = false, any_valid = false;
-    for (const Eigen::Vector3d& p : hull_points[index]) {
-      const Eigen::Vector3d world_p = pt.foot + pt.target->R_world_local * p;
+  // Extent in camera c's image of a target's local points placed at `foot`, or nothing when no
+  // point is in the lens's field. Points beyond the field stretch the extent to the image border
+  // on their side (the target reaches past it). Not clipped to the image.
+  std::optional<TruthBox> projected_extent(const CameraCache& c,
+                                           const std::vector<Eigen::Vector3d>& points,
+                                           const detail::CompiledTarget& target,
+                                           const Eigen::Vector3d& foot) const {
+    TruthBox box{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
+                 -std::numeric_limits<double>::infinity(),
+                 -std::numeric_limits<double>::infinity()};
+    bool any_valid = false;
+    bool beyond_left = false, beyond_right = false, beyond_top = false, beyond_bottom = false;
+    for (const Eigen::Vector3d& p : points) {
+      const Eigen::Vector3d ray = c.T_cam_world * (foot + target.R_world_local * p);
       Eigen::Vector2d px;
-      if (!c.camera->model->project(c.T_cam_world * world_p, px)) {
-        any_invalid = true;
+      if (!c.camera->model->project(ray, px)) {
+        beyond_left = beyond_left || ray.x() < 0.0;
+        beyond_right = beyond_right || ray.x() > 0.0;
+        beyond_top = beyond_top || ray.y() < 0.0;
+        beyond_bottom = beyond_bottom || ray.y() > 0.0;
         continue;
       }
       any_valid = true;
-      x0 = std::min(x0, px.x());
-      y0 = std::min(y0, px.y());
-      x1 = std::max(x1, px.x());
-      y1 = std::max(y1, px.y());
+      box.x_min = std::min(box.x_min, px.x());
+      box.y_min = std::min(box.y_min, px.y());
+      box.x_max = std::max(box.x_max, px.x());
+      box.y_max = std::max(box.y_max, px.y());
     }
-    const cv::Rect image(cv::Point(0, 0), c.size);
-    if (!any_valid) return {};
-    if (any_invalid) return image;  // partly beyond the lens's field: take the whole image
+    if (!any_valid) return std::nullopt;
+    if (beyond_left) box.x_min = -0.5;
+    if (beyond_right) box.x_max = c.size.width - 0.5;
+    if (beyond_top) box.y_min = -0.5;
+    if (beyond_bottom) box.y_max = c.size.height - 0.5;
+    return box;
+  }
+
+  // The image rectangle a placed target may cover in camera c (with a margin), or an empty one.
+  cv::Rect target_region(const CameraCache& c, const PlacedTarget& pt) const {
+    const std::size_t index = pt.target->id - detail::kFirstTargetId;
+    const auto extent = projected_extent(c, hull_points[index], *pt.target, pt.foot);
+    if (!extent) return {};
     const int margin = kRegionPad + blur_radius(c);
-    const cv::Rect box(cv::Point(static_cast<int>(std::floor(x0)) - margin,
-                                 static_cast<int>(std::floor(y0)) - margin),
-                       cv::Point(static_cast<int>(std::ceil(x1)) + margin + 1,
-                                 static_cast<int>(std::ceil(y1)) + margin + 1));
-    return box & image;
+    const cv::Rect box(cv::Point(static_cast<int>(std::floor(extent->x_min)) - margin,
+                                 static_cast<int>(std::floor(extent->y_min)) - margin),
+                       cv::Point(static_cast<int>(std::ceil(extent->x_max)) + margin + 1,
+                                 static_cast<int>(std::ceil(extent->y_max)) + margin + 1));
+    return box & cv::Rect(cv::Point(0, 0), c.size);
   }
 
   int blur_radius(const CameraCache& c) const {
@@ -436,6 +511,7 @@ struct SimulatedRig::Impl {
     const cv::Rect rr = cv::Rect(out_rect.x - rb, out_rect.y - rb, out_rect.width + 2 * rb,
                                  out_rect.height + 2 * rb) &
                         image;
+    const std::vector<detail::PreparedTarget> prepared = detail::World::prepare(moving, c.centre);
     cv::Mat linear(rr.size(), c.static_linear.type());
     cv::Mat ids(rr.size(), CV_16UC1);
     for (int y = 0; y < rr.height; ++y) {
@@ -449,7 +525,7 @@ struct SimulatedRig::Impl {
         const Eigen::Vector3d d(r[0], r[1], r[2]);
         Hit hit;
         hit.t = c.static_depth.at<float>(gy, gx);
-        detail::World::trace_targets(moving, c.centre, d, hit);
+        detail::World::trace_targets(prepared, d, hit);
         if (hit.texture < 0) continue;  // no moving target in front of the static scene
         ids.at<std::uint16_t>(y, x) = hit.id;
         set_linear(linear, y, x, radiance(c, hit, d));
@@ -467,7 +543,11 @@ struct SimulatedRig::Impl {
           if (nx >= 0 && ny >= 0 && nx < rr.width && ny < rr.height)
             involves_moving = involves_moving || is_moving_id(ids.at<std::uint16_t>(ny, nx));
         }
-        if (involves_moving) set_linear(linear, y, x, supersample(c, rr.x + x, rr.y + y, &moving));
+        if (involves_moving) {
+          set_linear(linear, y, x,
+                     supersample_moving(c, rr.x + x, rr.y + y, prepared,
+                                        get_linear(c.static_linear, rr.y + y, rr.x + x)));
+        }
       }
     }
     cv::Mat finished = linear;
@@ -481,13 +561,11 @@ struct SimulatedRig::Impl {
     add_noise(c, clean, nullptr, out_rect, offset, out);
   }
 
+  // One region per moving target (empty where it is out of the image).
   std::vector<cv::Rect> regions(const CameraCache& c,
                                 const std::vector<PlacedTarget>& moving) const {
     std::vector<cv::Rect> out;
-    for (const PlacedTarget& pt : moving) {
-      const cv::Rect r = target_region(c, pt);
-      if (r.area() > 0) out.push_back(r);
-    }
+    for (const PlacedTarget& pt : moving) out.push_back(target_region(c, pt));
     return out;
   }
 };
@@ -576,7 +654,19 @@ void SimulatedRig::render(std::int64_t frame_index, FrameSet& out) const {
     const std::size_t offset = m.noise_offset(frame_index, static_cast<Slot>(i));
     const cv::Rect whole(cv::Point(0, 0), c.size);
     m.add_noise(c, c.static_clean, c.visible ? &c.static_sigma : nullptr, whole, offset, img);
-    for (const cv::Rect& r : m.regions(c, moving)) m.render_region(c, r, moving, offset, img);
+    const std::vector<cv::Rect> rects = m.regions(c, moving);
+    std::vector<PlacedTarget> local;
+    for (const cv::Rect& r : rects) {
+      if (r.area() == 0) continue;
+      // Only the moving targets whose own region reaches this one can cover its pixels.
+      const int rb = m.blur_radius(c);
+      const cv::Rect reach(r.x - rb, r.y - rb, r.width + 2 * rb, r.height + 2 * rb);
+      local.clear();
+      for (std::size_t k = 0; k < moving.size(); ++k) {
+        if ((rects[k] & reach).area() > 0) local.push_back(moving[k]);
+      }
+      m.render_region(c, r, local, offset, img);
+    }
   }
 }
 
@@ -604,17 +694,9 @@ std::vector<TargetTruth> SimulatedRig::truth(std::int64_t frame_index) const {
     truth.distance_m = truth.position_m.norm();
     for (int i = 0; i < kSlotCount; ++i) {
       const CameraCache& c = m.cams[static_cast<std::size_t>(i)];
-      TruthBox box{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
-                   -std::numeric_limits<double>::infinity(),
-                   -std::numeric_limits<double>::infinity()};
-      for (const Eigen::Vector3d& p : t.silhouette_points) {
-        Eigen::Vector2d px;
-        if (!c.camera->model->project(c.T_cam_world * (foot + t.R_world_local * p), px)) continue;
-        box.x_min = std::min(box.x_min, px.x());
-        box.y_min = std::min(box.y_min, px.y());
-        box.x_max = std::max(box.x_max, px.x());
-        box.y_max = std::max(box.y_max, px.y());
-      }
+      const auto extent = m.projected_extent(c, t.silhouette_points, t, foot);
+      if (!extent) continue;
+      TruthBox box = *extent;
       const double w = c.size.width - 0.5, h = c.size.height - 0.5;
       box.x_min = std::max(box.x_min, -0.5);
       box.y_min = std::max(box.y_min, -0.5);

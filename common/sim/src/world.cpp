@@ -409,38 +409,62 @@ void World::trace_background(const Eigen::Vector3d& o, const Eigen::Vector3d& d,
   }
 }
 
+namespace {
+
+// One target along a ray given in its local frame (origin ol, direction dl).
+void trace_local(const CompiledTarget& t, const Eigen::Matrix3d& R_world_local,
+                 const Eigen::Vector3d& ol, const Eigen::Vector3d& dl, Hit& hit) {
+  // Quick rejection by the local bounding box (slabs).
+  double t0 = 0.0, t1 = hit.t;
+  for (int i = 0; i < 3; ++i) {
+    if (std::abs(dl[i]) < kEps) {
+      if (ol[i] < t.bound_lo[i] || ol[i] > t.bound_hi[i]) return;
+      continue;
+    }
+    double a = (t.bound_lo[i] - ol[i]) / dl[i], b = (t.bound_hi[i] - ol[i]) / dl[i];
+    if (a > b) std::swap(a, b);
+    t0 = std::max(t0, a);
+    t1 = std::min(t1, b);
+    if (t0 > t1) return;
+  }
+  LocalHit best;
+  best.t = hit.t;
+  for (const Primitive& p : t.parts) intersect(p, ol, dl, best);
+  if (best.texture < 0) return;
+  hit.t = best.t;
+  hit.id = t.id;
+  hit.u = best.u;
+  hit.v = best.v;
+  hit.texture = best.texture;
+  hit.normal = R_world_local * best.normal;
+}
+
+}  // namespace
+
 void World::trace_targets(const std::vector<PlacedTarget>& placed, const Eigen::Vector3d& o,
                           const Eigen::Vector3d& d, Hit& hit) {
   for (const PlacedTarget& pt : placed) {
     const CompiledTarget& t = *pt.target;
-    const Eigen::Vector3d ol = t.R_world_local.transpose() * (o - pt.foot);
-    const Eigen::Vector3d dl = t.R_world_local.transpose() * d;
-    // Quick rejection by the local bounding box (slabs).
-    double t0 = 0.0, t1 = hit.t;
-    bool miss = false;
-    for (int i = 0; i < 3 && !miss; ++i) {
-      if (std::abs(dl[i]) < kEps) {
-        miss = ol[i] < t.bound_lo[i] || ol[i] > t.bound_hi[i];
-        continue;
-      }
-      double a = (t.bound_lo[i] - ol[i]) / dl[i], b = (t.bound_hi[i] - ol[i]) / dl[i];
-      if (a > b) std::swap(a, b);
-      t0 = std::max(t0, a);
-      t1 = std::min(t1, b);
-      miss = t0 > t1;
-    }
-    if (miss) continue;
-    LocalHit best;
-    best.t = hit.t;
-    for (const Primitive& p : t.parts) intersect(p, ol, dl, best);
-    if (best.texture < 0) continue;
-    hit.t = best.t;
-    hit.id = t.id;
-    hit.u = best.u;
-    hit.v = best.v;
-    hit.texture = best.texture;
-    hit.normal = t.R_world_local * best.normal;
+    trace_local(t, t.R_world_local, t.R_world_local.transpose() * (o - pt.foot),
+                t.R_world_local.transpose() * d, hit);
   }
+}
+
+std::vector<PreparedTarget> World::prepare(const std::vector<PlacedTarget>& placed,
+                                           const Eigen::Vector3d& o) {
+  std::vector<PreparedTarget> out;
+  out.reserve(placed.size());
+  for (const PlacedTarget& pt : placed) {
+    const Eigen::Matrix3d R_local_world = pt.target->R_world_local.transpose();
+    out.push_back({pt.target, R_local_world, R_local_world * (o - pt.foot)});
+  }
+  return out;
+}
+
+void World::trace_targets(const std::vector<PreparedTarget>& prepared, const Eigen::Vector3d& d,
+                          Hit& hit) {
+  for (const PreparedTarget& pt : prepared)
+    trace_local(*pt.target, pt.target->R_world_local, pt.origin_local, pt.R_local_world * d, hit);
 }
 
 SurfaceSample World::shade(const Hit& hit, const Eigen::Vector3d& d, double pixel_angle_rad) const {

@@ -71,6 +71,13 @@ struct PlacedTarget {
   Eigen::Vector3d foot = Eigen::Vector3d::Zero();
 };
 
+// A placed target prepared for many rays from one camera centre: the centre in its local frame.
+struct PreparedTarget {
+  const CompiledTarget* target = nullptr;
+  Eigen::Matrix3d R_local_world = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d origin_local = Eigen::Vector3d::Zero();
+};
+
 class World {
  public:
   explicit World(const Scene& scene);
@@ -84,6 +91,11 @@ class World {
   void trace_background(const Eigen::Vector3d& o, const Eigen::Vector3d& d, Hit& hit) const;
   static void trace_targets(const std::vector<PlacedTarget>& placed, const Eigen::Vector3d& o,
                             const Eigen::Vector3d& d, Hit& hit);
+  // The same for rays from one centre o (prepare once, trace many rays).
+  static std::vector<PreparedTarget> prepare(const std::vector<PlacedTarget>& placed,
+                                             const Eigen::Vector3d& o);
+  static void trace_targets(const std::vector<PreparedTarget>& prepared, const Eigen::Vector3d& d,
+                            Hit& hit);
 
   // Surface look at a hit; pixel_angle_rad sets the texture footprint.
   SurfaceSample shade(const Hit& hit, const Eigen::Vector3d& d, double pixel_angle_rad) const;
