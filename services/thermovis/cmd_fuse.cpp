@@ -55,6 +55,7 @@ double ms_since(Clock::time_point start) {
 // ---------------------------------------------------------------- fuse
 struct FuseOptions {
   std::string ir, vis, out, method = "vsmwls", colour = "rgb";
+  int fast_scale = fu::FastFusionParams{}.scale;
   bool enhance = false, json = false;
 };
 
@@ -62,6 +63,7 @@ int run_fuse(const FuseOptions& opt) {
   fu::FusionOptions options;
   options.method = parse_method(opt.method);
   options.colour = parse_colour(opt.colour);
+  options.fast.scale = opt.fast_scale;
   cv::Mat ir = read_image(opt.ir, "infrared");
   cv::Mat vis = read_image(opt.vis, "visible");
   const auto start = Clock::now();
@@ -98,6 +100,7 @@ struct EvalOptions {
   std::string colour = "rgb";
   bool no_jpeg = false, json = false;
   std::string save;
+  int fast_scale = fu::FastFusionParams{}.scale;
 };
 
 struct Pair {
@@ -137,6 +140,7 @@ MethodResult evaluate(const std::vector<Pair>& pairs, const std::string& method,
   fu::FusionOptions options;
   options.method = parse_method(method);
   options.colour = parse_colour(opt.colour);
+  options.fast.scale = opt.fast_scale;
   MethodResult result{method, {}, 0.0};
   double total_ms = 0;
   for (const auto& pair : pairs) {
@@ -243,6 +247,10 @@ THERMOVIS_COMMAND("fuse", "Fuse one registered infrared/visible pair into one im
                                    "rgb (fuse every visible channel, VIFB) | luminance (fuse Y, "
                                    "keep the visible chroma)")
                         ->capture_default_str();
+                    app.add_option("--fast-scale", opt->fast_scale,
+                                   "fast method: reduction of its working grid")
+                        ->capture_default_str()
+                        ->check(CLI::Range(1, 16));
                     app.add_flag("--enhance", opt->enhance,
                                  "infrared AGC and visible CLAHE before fusing");
                     app.add_flag("--json", opt->json, "print one JSON object");

@@ -42,11 +42,9 @@ cv::Mat reduce(const cv::Mat& plane_u8, cv::Size small) {
   return f;
 }
 
-cv::Mat enlarge(const cv::Mat& m, cv::Size full) {
-  if (m.size() == full) return m;
-  cv::Mat out;
+// Bilinear resize into `out` (whose buffer is reused when its size matches).
+void enlarge(const cv::Mat& m, cv::Size full, cv::Mat& out) {
   cv::resize(m, out, full, 0, 0, cv::INTER_LINEAR);
-  return out;
 }
 
 cv::Mat saliency(const cv::Mat& plane, double sigma) {
@@ -60,8 +58,9 @@ cv::Mat saliency(const cv::Mat& plane, double sigma) {
 
 }  // namespace
 
-std::vector<cv::Mat> fast_fuse(const cv::Mat& infrared, const std::vector<cv::Mat>& visible,
-                               const cv::Mat& decision_visible, const FastFusionParams& p) {
+void fast_fuse(const cv::Mat& infrared, const std::vector<cv::Mat>& visible,
+               const cv::Mat& decision_visible, std::vector<cv::Mat>& out,
+               const FastFusionParams& p) {
   if (infrared.type() != CV_8UC1 || decision_visible.type() != CV_8UC1) {
     throw std::invalid_argument("fast_fuse needs CV_8UC1 planes");
   }
@@ -91,41 +90,77 @@ std::vector<cv::Mat> fast_fuse(const cv::Mat& infrared, const std::vector<cv::Ma
   guided_coefficients(ir_small, pmap,
                       std::max(1, static_cast<int>(std::lround(p.detail_radius_px / s))),
                       p.detail_eps, a, b);
-  const cv::Mat a_full = enlarge(a, full);
-  const cv::Mat b_full = enlarge(b, full);
 
   const int base_radius = std::max(0, static_cast<int>(std::lround((p.base_box_px / 2) / s)));
   const cv::Mat ir_base = box_mean(ir_small, base_radius);
 
-  std::vector<cv::Mat> out;
-  for (const auto& vis : visible) {
+  // Full-resolution maps are interpolated on the fly: each reduced map is first stretched to the
+  // full width (cv::resize, INTER_LINEAR), then blended between two such rows per output row with
+  // cv::resize's pixel-centre convention, inside the final loop.
+  const cv::Size wide(full.width, small.height);
+  const double row_scale = static_cast<double>(small.height) / full.height;
+  std::vector<int> row0(static_cast<std::size_t>(full.height)), row1(row0.size());
+  std::vector<float> row_t(row0.size());
+  for (int r = 0; r < full.height; ++r) {
+    const double y = std::max(0.0, (r + 0.5) * row_scale - 0.5);
+    const int y0 = std::min(static_cast<int>(y), small.height - 1);
+    row0[static_cast<std::size_t>(r)] = y0;
+    row1[static_cast<std::size_t>(r)] = std::min(y0 + 1, small.height - 1);
+    row_t[static_cast<std::size_t>(r)] = static_cast<float>(y - y0);
+  }
+  // Per-thread buffers of the stretched maps, reused from call to call.
+  thread_local cv::Mat a_wide, b_wide, offset_wide, diff_wide, row;
+  enlarge(a, wide, a_wide);
+  enlarge(b, wide, b_wide);
+
+  out.resize(visible.size());
+  for (std::size_t k = 0; k < visible.size(); ++k) {
+    const cv::Mat& vis = visible[k];
     const cv::Mat vs = vis.data == decision_visible.data ? vis_small : reduce(vis, small);
-    const cv::Mat vis_base = box_mean(vs, base_radius);
-    // Base term minus the visible base, and the difference of the bases (intensities 0..1).
-    const cv::Mat base_diff = ir_base - vis_base;
-    const cv::Mat fused_base_offset = enlarge(base_weight.mul(base_diff), full);
-    const cv::Mat base_diff_full = enlarge(base_diff, full);
-    cv::Mat fused(full, CV_8UC1);
+    const cv::Mat base_diff = ir_base - box_mean(vs, base_radius);  // B_ir - B_vis
+    enlarge(base_weight.mul(base_diff), wide, offset_wide);
+    enlarge(base_diff, wide, diff_wide);
+    cv::Mat& fused = out[k];
+    fused.create(full, CV_8UC1);
+    // The row is computed in float (a loop the compiler vectorises: no uchar store that could
+    // alias the inputs), then rounded and saturated to 8 bits by OpenCV.
+    row.create(1, full.width, CV_32F);
+    float* out_row = row.ptr<float>();
     for (int r = 0; r < full.height; ++r) {
+      const auto i = static_cast<std::size_t>(r);
+      const float t = row_t[i];
+      const float* a0 = a_wide.ptr<float>(row0[i]);
+      const float* a1 = a_wide.ptr<float>(row1[i]);
+      const float* b0 = b_wide.ptr<float>(row0[i]);
+      const float* b1 = b_wide.ptr<float>(row1[i]);
+      const float* f0 = offset_wide.ptr<float>(row0[i]);
+      const float* f1 = offset_wide.ptr<float>(row1[i]);
+      const float* d0 = diff_wide.ptr<float>(row0[i]);
+      const float* d1 = diff_wide.ptr<float>(row1[i]);
       const uchar* ir = infrared.ptr<uchar>(r);
       const uchar* vi = vis.ptr<uchar>(r);
-      const float* ca = a_full.ptr<float>(r);
-      const float* cb = b_full.ptr<float>(r);
-      const float* fb = fused_base_offset.ptr<float>(r);
-      const float* bd = base_diff_full.ptr<float>(r);
-      uchar* o = fused.ptr<uchar>(r);
       for (int c = 0; c < full.width; ++c) {
-        const float g = ir[c] * (1.0f / 255.0f);
-        const float v = vi[c] * (1.0f / 255.0f);
-        const float w = std::clamp(ca[c] * g + cb[c], 0.0f, 1.0f);
-        // F = B_vis + W_B (B_ir - B_vis) + D_vis + W_D (D_ir - D_vis), D = I - B.
-        const float f = v + fb[c] + w * ((g - v) - bd[c]);
-        o[c] = cv::saturate_cast<uchar>(f * 255.0f);
+        const float g = static_cast<float>(ir[c]) * (1.0f / 255.0f);
+        const float v = static_cast<float>(vi[c]) * (1.0f / 255.0f);
+        const float ca = a0[c] + t * (a1[c] - a0[c]);
+        const float cb = b0[c] + t * (b1[c] - b0[c]);
+        const float fb = f0[c] + t * (f1[c] - f0[c]);
+        const float bd = d0[c] + t * (d1[c] - d0[c]);
+        const float w = std::min(std::max(ca * g + cb, 0.0f), 1.0f);
+        // F = B_vis + W_B (B_ir - B_vis) + D_vis + W_D (D_ir - D_vis), with D = I - B.
+        out_row[c] = v + fb + w * ((g - v) - bd);
       }
+      cv::Mat fused_row = fused.row(r);
+      row.convertTo(fused_row, CV_8U, 255.0);
     }
-    out.push_back(fused);
   }
-  return out;
+}
+
+std::vector<cv::Mat> fast_fuse(const cv::Mat& infrared, const std::vector<cv::Mat>& visible,
+                               const cv::Mat& decision_visible, const FastFusionParams& params) {
+  std::vector<cv::Mat> fused;
+  fast_fuse(infrared, visible, decision_visible, fused, params);
+  return fused;
 }
 
 }  // namespace thermovis::fuse

@@ -83,7 +83,8 @@ cv::Mat fuse_plane_vsmwls(const cv::Mat& ir, const cv::Mat& vis, FusionMethod me
   return vsmwls_fuse(vis, ir, VsmWlsParams::paper());
 }
 
-cv::Mat fuse_per_channel(const cv::Mat& infrared, const cv::Mat& visible, const FusionOptions& o) {
+void fuse_per_channel(const cv::Mat& infrared, const cv::Mat& visible, const FusionOptions& o,
+                      cv::Mat& out) {
   const int channels = visible.channels();
   std::vector<cv::Mat> planes;
   if (o.method == FusionMethod::fast) {
@@ -91,29 +92,33 @@ cv::Mat fuse_per_channel(const cv::Mat& infrared, const cv::Mat& visible, const 
     std::vector<cv::Mat> vis_planes;
     cv::split(to_u8(visible), vis_planes);
     const cv::Mat decision = channels == 1 ? vis_planes[0] : gray_u8(visible);
-    planes = fast_fuse(ir, vis_planes, decision, o.fast);
+    fast_fuse(ir, vis_planes, decision, planes, o.fast);
   } else {
     for (int k = 0; k < channels; ++k) {
       const cv::Mat ir = plane_unit(infrared, infrared.channels() == 1 ? 0 : k);
       planes.push_back(im2uint8(fuse_plane_vsmwls(ir, plane_unit(visible, k), o.method)));
     }
   }
-  cv::Mat out;
   cv::merge(planes, out);
-  return out;
 }
 
-cv::Mat fuse_luminance(const cv::Mat& infrared, const cv::Mat& visible, const FusionOptions& o) {
+void fuse_luminance(const cv::Mat& infrared, const cv::Mat& visible, const FusionOptions& o,
+                    cv::Mat& out) {
   const cv::Mat ir = gray_u8(infrared);
   const cv::Mat vis = to_u8(visible);
-  const cv::Mat luma = gray_u8(vis);
-  cv::Mat fused_luma;
-  if (o.method == FusionMethod::fast) {
-    fused_luma = fast_fuse(ir, {luma}, luma, o.fast).front();
-  } else {
-    fused_luma = im2uint8(fuse_plane_vsmwls(plane_unit(ir, 0), plane_unit(luma, 0), o.method));
+  thread_local cv::Mat luma_buffer;  // reused; never shares the caller's pixels
+  cv::Mat luma = vis;
+  if (vis.channels() == 3) {
+    cv::cvtColor(vis, luma_buffer, cv::COLOR_BGR2GRAY);
+    luma = luma_buffer;
   }
-  return enhance::replace_luma(vis, luma, fused_luma);
+  thread_local std::vector<cv::Mat> fused_luma(1);
+  if (o.method == FusionMethod::fast) {
+    fast_fuse(ir, {luma}, luma, fused_luma, o.fast);
+  } else {
+    fused_luma[0] = im2uint8(fuse_plane_vsmwls(plane_unit(ir, 0), plane_unit(luma, 0), o.method));
+  }
+  enhance::replace_luma(vis, luma, fused_luma[0], out);
 }
 
 }  // namespace
@@ -148,6 +153,13 @@ std::optional<ColourMode> colour_from_name(std::string_view name) {
 }
 
 cv::Mat fuse(const cv::Mat& infrared, const cv::Mat& visible, const FusionOptions& options) {
+  cv::Mat fused;
+  fuse(infrared, visible, fused, options);
+  return fused;
+}
+
+void fuse(const cv::Mat& infrared, const cv::Mat& visible, cv::Mat& fused,
+          const FusionOptions& options) {
   validate(infrared, "infrared");
   validate(visible, "visible");
   if (infrared.size() != visible.size()) {
@@ -165,8 +177,11 @@ cv::Mat fuse(const cv::Mat& infrared, const cv::Mat& visible, const FusionOption
   if (infrared.rows < 18 || infrared.cols < 18) {
     throw std::invalid_argument("images must be at least 18x18 pixels, got " + describe(infrared));
   }
-  return options.colour == ColourMode::per_channel ? fuse_per_channel(infrared, visible, options)
-                                                   : fuse_luminance(infrared, visible, options);
+  if (options.colour == ColourMode::per_channel) {
+    fuse_per_channel(infrared, visible, options, fused);
+  } else {
+    fuse_luminance(infrared, visible, options, fused);
+  }
 }
 
 }  // namespace thermovis::fuse

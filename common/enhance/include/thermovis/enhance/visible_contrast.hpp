@@ -17,8 +17,8 @@ struct VisibleContrastParams {
 
 // A BGR image whose BT.601 luma `luma` (CV_8UC1, cv::COLOR_BGR2GRAY of `bgr`) is replaced by
 // `new_luma`: every channel shifted by new_luma - luma, saturated. Keeps Cb/Cr where no channel
-// saturates. A one-channel `bgr` gives new_luma itself.
-cv::Mat replace_luma(const cv::Mat& bgr, const cv::Mat& luma, const cv::Mat& new_luma);
+// saturates. A one-channel `bgr` gives new_luma itself. `out` is reused when it has the size.
+void replace_luma(const cv::Mat& bgr, const cv::Mat& luma, const cv::Mat& new_luma, cv::Mat& out);
 
 // visible: CV_8UC1 or CV_8UC3 (BGR). Returns the same type. Throws std::invalid_argument for
 // empty input or another type.

@@ -28,7 +28,14 @@ struct FastFusionParams {
 
 // infrared: CV_8UC1. visible: one or more CV_8UC1 planes (colour channels or luminance) of the
 // same size; decision_visible: the CV_8UC1 plane whose saliency competes with the infrared
-// (the luminance for colour input). Returns one CV_8UC1 fused plane per visible plane.
+// (the luminance for colour input). `fused` receives one CV_8UC1 plane per visible plane; its
+// buffers are reused when they already have the right size (video), as are this thread's
+// intermediate buffers.
+void fast_fuse(const cv::Mat& infrared, const std::vector<cv::Mat>& visible,
+               const cv::Mat& decision_visible, std::vector<cv::Mat>& fused,
+               const FastFusionParams& params = {});
+
+// The same, returning new planes.
 std::vector<cv::Mat> fast_fuse(const cv::Mat& infrared, const std::vector<cv::Mat>& visible,
                                const cv::Mat& decision_visible,
                                const FastFusionParams& params = {});

@@ -50,4 +50,8 @@ std::optional<ColourMode> colour_from_name(std::string_view name);
 // channel counts, sizes that differ, or non-finite float pixels.
 cv::Mat fuse(const cv::Mat& infrared, const cv::Mat& visible, const FusionOptions& options = {});
 
+// The same into `fused`, whose buffer is reused when it has the right size and type (video).
+void fuse(const cv::Mat& infrared, const cv::Mat& visible, cv::Mat& fused,
+          const FusionOptions& options);
+
 }  // namespace thermovis::fuse
