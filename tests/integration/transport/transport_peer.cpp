@@ -67,10 +67,37 @@ tt::ParticipantConfig loopback(int domain, const std::string& name) {
   return {domain, {}, tt::kLoopbackProfile, name};
 }
 
+// Discovery is not symmetric: the writer may match the reader before the reader matches the
+// writer, and a VOLATILE reader drops samples of a writer it does not know yet. So the
+// subscriber announces on a small TRANSIENT_LOCAL topic once its reader has matched, and the
+// publisher starts only after that announcement.
+constexpr const char* kReadyTopic = "thermovis/test/ready";
+
+void wait_for_ready_subscriber(tt::Participant& participant, int timeout_s) {
+  tt::Reader<thermovis::Health> ready(participant, kReadyTopic, tt::state_topic_qos());
+  const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(timeout_s);
+  while (std::chrono::steady_clock::now() < give_up) {
+    if (ready.wait_for_data(100ms) && !ready.take().empty()) return;
+  }
+  throw std::runtime_error("the subscriber did not announce itself within the timeout");
+}
+
+void announce_ready(tt::Participant& participant, int timeout_s) {
+  tt::Writer<thermovis::Health> ready(participant, kReadyTopic, tt::state_topic_qos());
+  thermovis::Health health;
+  health.service("transport_peer subscriber");
+  health.state(thermovis::HEALTH_OK);
+  ready.write(health);
+  // Keep the writer (and its TRANSIENT_LOCAL sample) until the publisher has read it.
+  ready.wait_for_readers(1, std::chrono::seconds(timeout_s));
+  ready.native().wait_for_acknowledgments(eprosima::fastrtps::Duration_t(timeout_s, 0));
+}
+
 int publish_frames(const Options& o) {
   tt::Participant participant(loopback(o.domain, "transport_peer publisher"));
   tt::Writer<thermovis::VisibleStereoFrame> writer(
       participant, kFrameTopic, tt::frame_topic_qos(std::chrono::milliseconds(o.deadline_ms)));
+  wait_for_ready_subscriber(participant, o.timeout_s);
   if (!writer.wait_for_readers(1, std::chrono::seconds(o.timeout_s))) {
     throw std::runtime_error("no reader matched within the timeout");
   }
@@ -99,7 +126,9 @@ int publish_frames(const Options& o) {
   while (writer.counters().matched > 0 && std::chrono::steady_clock::now() < deadline_end) {
     std::this_thread::sleep_for(10ms);
   }
-  write_result(o.result, {{"frames", frames}, {"counters", counters_json(writer.counters())}});
+  write_result(o.result, {{"frames", frames},
+                          {"counters", counters_json(writer.counters())},
+                          {"segments", tt::mapped_data_sharing_segments()}});
   return 0;
 }
 
@@ -110,10 +139,13 @@ int subscribe_frames(const Options& o) {
   if (!reader.wait_for_writers(1, std::chrono::seconds(o.timeout_s))) {
     throw std::runtime_error("no writer matched within the timeout");
   }
+  announce_ready(participant, o.timeout_s);
   nlohmann::json frames = nlohmann::json::array();
   const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(o.timeout_s);
   int received = 0;
-  while (received < o.count && std::chrono::steady_clock::now() < give_up) {
+  std::uint64_t last_seq = 0;  // stop at the last frame even if some were lost
+  while (last_seq < static_cast<std::uint64_t>(o.count) &&
+         std::chrono::steady_clock::now() < give_up) {
     if (!reader.wait_for_data(100ms)) continue;
     auto samples = reader.take();
     for (std::size_t i = 0; i < samples.size(); ++i) {
@@ -131,9 +163,12 @@ int subscribe_frames(const Options& o) {
                         {"still_valid", samples.still_valid(i)},
                         {"left", where(frame.left().data())}});
       ++received;
+      last_seq = frame.seq();
     }
   }
-  write_result(o.result, {{"frames", frames}, {"counters", counters_json(reader.counters())}});
+  write_result(o.result, {{"frames", frames},
+                          {"counters", counters_json(reader.counters())},
+                          {"segments", tt::mapped_data_sharing_segments()}});
   return received == o.count ? 0 : 3;
 }
 

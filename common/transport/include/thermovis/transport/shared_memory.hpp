@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace thermovis::transport {
 
@@ -22,5 +23,9 @@ std::uint64_t file_offset(const Mapping& mapping, const void* address);
 
 // True when `path` is a Fast DDS data-sharing segment (/dev/shm/fast_datasharing_*).
 bool is_data_sharing_segment(const std::string& path);
+
+// The data-sharing segments this process has mapped (its writers' pools, its readers'
+// notification segments and the pools of the writers they read), each once.
+std::vector<std::string> mapped_data_sharing_segments();
 
 }  // namespace thermovis::transport

@@ -47,10 +47,16 @@ class Writer : public WriterBase {
   // Throws std::runtime_error when T is not plain or every pool slot is in use.
   Loan<T> loan() { return Loan<T>(this, static_cast<T*>(loan_raw())); }
 
-  // Publishes a loaned sample; the loan is consumed whatever happens.
+  // Publishes a loaned sample. On failure the buffer goes back to the pool and the error is
+  // thrown; either way the loan is consumed.
   void publish(Loan<T>&& loan) {
     T* sample = std::exchange(loan.sample_, nullptr);
-    write_raw(sample);
+    try {
+      write_raw(sample);
+    } catch (...) {
+      discard_raw(sample);
+      throw;
+    }
   }
 
   // Copies `sample` into the writer. Throws std::invalid_argument when a sequence exceeds its
