@@ -27,6 +27,8 @@ struct Options {
   std::string mode = "fused";
   std::string method = "ncc";
   double min_distance_m = 2.5;
+  int fast_threshold = 0;
+  int patch_radius = 0;
   bool surface = false;
   bool json = false;
 };
@@ -121,6 +123,8 @@ int run_range(const Options& opt) {
   rg::RangerOptions options;
   options.match.method = thermovis::match::parse_method(opt.method);
   options.min_distance_m = opt.min_distance_m;
+  if (opt.fast_threshold > 0) options.match.fast_threshold = opt.fast_threshold;
+  if (opt.patch_radius > 0) options.match.patch_radius = opt.patch_radius;
   for (const BoxRequest& request : requests) {
     cv::Rect box;
     if (request.rectified) {
@@ -192,6 +196,10 @@ THERMOVIS_COMMAND(
           ->capture_default_str();
       app.add_option("--min-distance", opt->min_distance_m, "nearest target distance searched, m")
           ->capture_default_str();
+      app.add_option("--fast-threshold", opt->fast_threshold,
+                     "ncc: FAST threshold, grey levels (default 12)");
+      app.add_option("--patch-radius", opt->patch_radius,
+                     "correlation patch radius, px (default 4)");
       app.add_flag("--surface", opt->surface,
                    "report the distance of the target's visible surface (default: "
                    "its centre, by the class's known depth)");
