@@ -56,6 +56,7 @@ struct Job {
   nlohmann::json description;             // grid / model figures
   std::optional<double> parallax_offset;  // infrared registered: offset from its visible eye, m
   double grid_f = 0.0;                    // px per rad of the output grid (for parallax figures)
+  int field_row = 0;                      // output row through the field's centre
   double map_ms = 0.0;
 };
 
@@ -118,6 +119,7 @@ std::vector<Job> taylor_jobs(const cam::Rig& rig, const Options& opt,
                               opt.onto_visible ? opt.registration_distance_m : 0.0);
     job.map_ms = ms_since(t0);
     job.grid_f = g.grid.intrinsics().f;
+    job.field_row = static_cast<int>(std::lround(g.grid.intrinsics().cy));
     job.description = {{"model", "taylor"},
                        {"grid", grid_json(g.grid)},
                        {"pair", {pair.left, pair.right}},
@@ -150,6 +152,7 @@ std::vector<Job> elliptical_jobs(const cam::Rig& rig, const std::vector<std::str
     const auto t0 = Clock::now();
     const rect::EllipticalFit fit = rect::fit_elliptical_model(*taylor);
     job.map = rect::build_elliptical_map(fit.model);
+    job.field_row = job.map.rows / 2;
     job.map_ms = ms_since(t0);
     job.description = {{"model", "elliptical"},
                        {"k1", fit.model.k1},
@@ -242,7 +245,7 @@ nlohmann::json run_job(const Job& job, const Options& opt) {
   j["output"] = job.output;
   j["input_size"] = {raw.cols, raw.rows};
   j["output_size"] = {out.cols, out.rows};
-  j["field_kept_deg"] = rect::field_kept_deg(*camera.model, job.map, job.map.rows / 2);
+  j["field_kept_deg"] = rect::field_kept_deg(*camera.model, job.map, job.field_row);
   j["valid_fraction"] = double(table.valid_entries()) / double(table.size().area());
   j["float_map_bytes"] = job.map.total() * job.map.elemSize();
   j["table_format"] = "Q11.5 offsets from the source centre, 2 x int16 per entry";

@@ -237,8 +237,8 @@ TEST(Rectification, RenderedSpotsLandAtTheirRectifiedPositions) {
     const double alpha = alpha_deg * M_PI / 180, beta = beta_deg * M_PI / 180;
     const Eigen::Vector3d dir(std::sin(alpha), std::cos(alpha) * std::sin(beta),
                               std::cos(alpha) * std::cos(beta));
-    const cv::Mat raw =
-        rectify::render_pattern(cam, g.T_ref_left_rect, rectify::angular_spot(dir, sigma), CV_8UC1);
+    const cv::Mat raw = rectify::render_pattern(cam, g.T_ref_left_rect,
+                                                rectify::angular_spot(dir, sigma), CV_8UC1, 1);
     const cv::Mat rectified = remapper.remap(raw);
     Eigen::Vector2d expected;
     ASSERT_TRUE(g.grid.project(dir, expected));
