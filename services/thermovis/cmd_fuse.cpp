@@ -272,6 +272,9 @@ THERMOVIS_COMMAND(
           ->delimiter(',')
           ->capture_default_str();
       app.add_option("--colour", opt->colour, "rgb | luminance")->capture_default_str();
+      app.add_option("--fast-scale", opt->fast_scale, "fast method: reduction of its working grid")
+          ->capture_default_str()
+          ->check(CLI::Range(1, 16));
       app.add_flag("--no-jpeg", opt->no_jpeg,
                    "score the 8-bit output itself instead of its quality-75 JPEG");
       app.add_option("--save", opt->save, "folder to write the fused images to");
