@@ -10,6 +10,7 @@
 #include <csignal>
 #include <fstream>
 #include <iostream>
+#include <memory>
 #include <stdexcept>
 #include <string>
 #include <thread>
@@ -82,15 +83,17 @@ void wait_for_ready_subscriber(tt::Participant& participant, int timeout_s) {
   throw std::runtime_error("the subscriber did not announce itself within the timeout");
 }
 
-void announce_ready(tt::Participant& participant, int timeout_s) {
-  tt::Writer<thermovis::Health> ready(participant, kReadyTopic, tt::state_topic_qos());
+// Returns the announcing writer: it must live on (its TRANSIENT_LOCAL sample with it) while
+// frames are read; waiting here for the publisher's acknowledgement could take a heartbeat
+// period, long enough to miss the first frames.
+std::unique_ptr<tt::Writer<thermovis::Health>> announce_ready(tt::Participant& participant) {
+  auto ready = std::make_unique<tt::Writer<thermovis::Health>>(participant, kReadyTopic,
+                                                               tt::state_topic_qos());
   thermovis::Health health;
   health.service("transport_peer subscriber");
   health.state(thermovis::HEALTH_OK);
-  ready.write(health);
-  // Keep the writer (and its TRANSIENT_LOCAL sample) until the publisher has read it.
-  ready.wait_for_readers(1, std::chrono::seconds(timeout_s));
-  ready.native().wait_for_acknowledgments(eprosima::fastrtps::Duration_t(timeout_s, 0));
+  ready->write(health);
+  return ready;
 }
 
 int publish_frames(const Options& o) {
@@ -139,7 +142,7 @@ int subscribe_frames(const Options& o) {
   if (!reader.wait_for_writers(1, std::chrono::seconds(o.timeout_s))) {
     throw std::runtime_error("no writer matched within the timeout");
   }
-  announce_ready(participant, o.timeout_s);
+  const auto ready = announce_ready(participant);
   nlohmann::json frames = nlohmann::json::array();
   const auto give_up = std::chrono::steady_clock::now() + std::chrono::seconds(o.timeout_s);
   int received = 0;
