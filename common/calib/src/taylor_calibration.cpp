@@ -203,9 +203,12 @@ double rms_of(const std::vector<double>& intr, double radius_scale,
     for (size_t j = 0; j < board.size(); ++j) {
       detail::CornerResidual res{board[j], views[static_cast<size_t>(i)].corners[j], radius_scale};
       double r[2];
-      if (!res(intr.data(), poses[static_cast<size_t>(i)].data(), r))
-        return std::numeric_limits<double>::infinity();
-      sum += r[0] * r[0] + r[1] * r[1];
+      // A corner the model cannot project (a poor linear solution) costs a fixed 100 px, so
+      // solutions stay comparable during the centre search.
+      if (res(intr.data(), poses[static_cast<size_t>(i)].data(), r))
+        sum += r[0] * r[0] + r[1] * r[1];
+      else
+        sum += 1e4;
       ++count;
     }
   }

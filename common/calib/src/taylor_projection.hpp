@@ -6,6 +6,7 @@
 // with the polynomial in a normalised radius rho_n = rho / radius_scale:
 //   a_k = b_k / radius_scale^k, so all b_k are of the order of the image size.
 // Unused high-order b_k are held at 0 (constant in the problem).
+#include <ceres/ceres.h>
 #include <ceres/jet.h>
 #include <ceres/rotation.h>
 
@@ -144,6 +145,11 @@ struct SecondCameraCornerResidual {
 std::vector<double> pack_intrinsics(const camera::TaylorIntrinsics& in, double radius_scale);
 camera::TaylorIntrinsics unpack_intrinsics(const double* intr, double radius_scale,
                                            int polynomial_degree, cv::Size image_size);
+
+// Holds the unused polynomial slots (and optionally the centre) of a block constant.
+void constrain_intrinsics(ceres::Problem& problem, double* intr, int degree, bool refine_centre);
+// Levenberg-Marquardt, Schur complement on the poses.
+ceres::Solver::Options solver_options(int threads);
 
 // Pose block <-> isometry (mm).
 void pack_pose(const Eigen::Isometry3d& T, double* pose);
