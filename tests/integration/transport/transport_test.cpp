@@ -85,13 +85,13 @@ TEST(TransportFrames, CrossProcessesZeroCopyAndIntact) {
   ASSERT_TRUE(run.subscriber.contains("frames"));
   const auto& sent = run.publisher["frames"];
   const auto& received = run.subscriber["frames"];
-  ASSERT_EQ(received.size(), static_cast<std::size_t>(count)) << "frames lost";
+  ASSERT_EQ(received.size(), static_cast<std::size_t>(count)) << "frames lost: " << received.dump();
 
   for (std::size_t i = 0; i < received.size(); ++i) {
     const auto& frame = received[i];
     SCOPED_TRACE("frame seq " + frame["seq"].dump());
     EXPECT_EQ(frame["seq"], i + 1);
-    EXPECT_EQ(frame["pattern_errors"], 0) << "image bytes differ from what was written";
+    EXPECT_EQ(frame["pattern_errors"], 0) << "image words differ from what was written";
     EXPECT_EQ(frame["width"], 1920);
     EXPECT_EQ(frame["height"], 1080);
     EXPECT_TRUE(frame["still_valid"].get<bool>());
