@@ -20,9 +20,11 @@
 // direction of each pixel from the centre, as the pinhole does; the fit (linear least squares in
 // 1/k2 and k1/k2 for each R, R by a scan and golden section) minimises the distance between the
 // model's and the pinhole's raw positions over every 8th output pixel whose pinhole position is
-// inside the raw image. Paper rig: visible left k1 = 0.429, k2 = 1.045, R = 1.506, RMS 32 px
-// (the elliptical radius cannot follow the pinhole exactly: "the edges are still aberrated");
-// infrared left k1 = 0.172, k2 = 1.539, R = 2.884, RMS 10.6 px.
+// inside the raw image, with the side edges' midpoints held. Paper rig: visible left k1 = 0.825,
+// k2 = 1.049, R = 1.245, RMS 46 px; infrared left k1 = 0.448, k2 = 1.108, R = 1.491, RMS 18 px.
+// Three parameters on an elliptical radius cannot follow the pinhole closely (the paper: "the
+// edges of the image are still aberrated, but the field-of-view is increased"); the Taylor
+// rectification (rig_rectification.hpp) is the exact correction.
 #include <opencv2/core/mat.hpp>
 
 #include "thermovis/camera/taylor.hpp"
