@@ -195,11 +195,13 @@ RangedTarget StereoRanger::range(const RectifiedFrames& frames, Mode mode, const
     const cv::Rect image(0, 0, frames.visible_left.cols, frames.visible_left.rows);
     const int pad = mo.patch_radius + 16;
     const int dmax = static_cast<int>(std::ceil(mo.max_disparity_px));
-    const cv::Rect left_roi =
-        cv::Rect(box.x - pad, box.y - pad, box.width + 2 * pad, box.height + 2 * pad) & image;
-    const cv::Rect right_roi = cv::Rect(box.x - dmax - pad, box.y - pad, box.width + dmax + 2 * pad,
-                                        box.height + 2 * pad) &
-                               image;
+    // One band for both eyes (the left box and the right search range): fusion filters
+    // (box means, guided filters) then see the same extent in both, so their border effects do
+    // not differ between the eyes.
+    const cv::Rect band = cv::Rect(box.x - dmax - pad, box.y - pad, box.width + dmax + 2 * pad,
+                                   box.height + 2 * pad) &
+                          image;
+    const cv::Rect left_roi = band, right_roi = band;
     if (left_roi.empty() || right_roi.empty()) {
       out.range = range_target(g, box, {}, options.range);  // the status names the box problem
       return out;
