@@ -6,7 +6,6 @@
 #include <tuple>
 
 #include "thermovis/transport/bounds.hpp"
-#include "thermovis/transport/health.hpp"
 #include "thermovis/transport/participant.hpp"
 #include "thermovis/transport/qos.hpp"
 #include "thermovis/transport/stamps.hpp"
@@ -185,25 +184,6 @@ TEST(TransportParticipant, ConfigErrorsNameTheCulprit) {
   EXPECT_NE(message({300, {}, tt::kLoopbackProfile, ""}).find("domain id 300"), std::string::npos);
   EXPECT_TRUE(std::filesystem::is_regular_file(tt::shipped_profile_file(tt::kHostProfile)));
   EXPECT_TRUE(std::filesystem::is_regular_file(tt::shipped_profile_file(tt::kLoopbackProfile)));
-}
-
-TEST(TransportHealth, CountersBecomeTopicHealth) {
-  tt::ServiceHealth service{
-      "thermovis-range", thermovis::HEALTH_DEGRADED, 120, 2, std::string(300, 'x'), {}};
-  service.topics.push_back({"thermovis/fused", 120, 0, 3, 1});
-  service.topics.push_back({"thermovis/ranges", 118, 1, 0, 2});
-  const thermovis::Health health = tt::make_health(service);
-  EXPECT_EQ(health.service().to_string(), "thermovis-range");
-  EXPECT_EQ(health.state(), thermovis::HEALTH_DEGRADED);
-  EXPECT_EQ(health.frames_processed(), 120u);
-  EXPECT_EQ(health.message().size(), thermovis::MAX_HEALTH_MESSAGE_LENGTH);  // cut to the bound
-  ASSERT_EQ(health.topics().size(), 2u);
-  EXPECT_EQ(health.topics()[0].topic().to_string(), "thermovis/fused");
-  EXPECT_EQ(health.topics()[0].requested_deadline_missed(), 3u);
-  EXPECT_EQ(health.topics()[1].offered_deadline_missed(), 1u);
-  EXPECT_GT(health.time_ns(), 1'600'000'000'000'000'000);  // epoch ns, after 2020
-  service.topics.resize(thermovis::MAX_HEALTH_TOPICS + 1);
-  EXPECT_THROW(tt::make_health(service), std::invalid_argument);
 }
 
 }  // namespace
