@@ -202,17 +202,15 @@ void write_image(const std::string& path, const cv::Mat& image) {
   if (!ok) throw std::runtime_error("cannot write " + path + " (unknown extension or no access)");
 }
 
-nlohmann::json run_job(const Job& job, const Options& opt) {
+// `raw` is the input read beforehand (empty with --checkerboard: rendered here).
+nlohmann::json run_job(const Job& job, cv::Mat raw, const Options& opt) {
   const cam::RigCamera& camera = *job.camera;
-  cv::Mat raw;
   if (opt.checkerboard) {
     // 5 deg squares aligned with the output grid: straight rows and columns after rectification.
     const int type = camera.band == "infrared" ? CV_16UC1 : CV_8UC3;
     raw = rect::render_pattern(camera, job.T_ref_pattern,
                                rect::angular_checkerboard(5.0 * M_PI / 180), type, 2);
     write_image(job.input, raw);
-  } else {
-    raw = read_image(job.input, camera);
   }
   const fpga::FixedPointMap table = fpga::FixedPointMap::from_float(job.map, raw.size());
   const fpga::SymmetryReport symmetry = fpga::check_quarter_symmetry(table);
@@ -312,6 +310,13 @@ int run_rectify(const Options& opt) {
     names = {pair.left, pair.right};
     files = {{opt.left, opt.out_left}, {opt.right, opt.out_right}};
   }
+  // Inputs first: a bad image is reported before any map is computed.
+  std::vector<cv::Mat> inputs(names.size());
+  if (!opt.checkerboard) {
+    for (std::size_t i = 0; i < names.size(); ++i) {
+      inputs[i] = read_image(files[i].first, rig.camera(names[i]));
+    }
+  }
   std::vector<Job> jobs =
       opt.model == "taylor" ? taylor_jobs(rig, opt, names) : elliptical_jobs(rig, names);
   nlohmann::json results = nlohmann::json::array();
@@ -323,7 +328,7 @@ int run_rectify(const Options& opt) {
                                ? opt.export_table
                                : with_suffix(opt.export_table, i == 0 ? ".left" : ".right");
     }
-    results.push_back(run_job(jobs[i], opt));
+    results.push_back(run_job(jobs[i], inputs[i], opt));
   }
   if (opt.json) {
     nlohmann::json out = {{"rig", rig.name}, {"cameras", results}};
