@@ -71,13 +71,14 @@ void BM_VisibleContrast(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(en::enhance_visible(vis).data);
 }
 
-template <fu::FusionMethod kMethod, fu::ColourMode kColour>
+template <fu::FusionMethod kMethod, fu::ColourMode kColour, int kScale = 0>
 void BM_Fusion(benchmark::State& state) {
   const cv::Mat ir = synthetic(size_of(state), CV_8UC1, 20, 230, 3);
   const cv::Mat vis = synthetic(size_of(state), CV_8UC3, 10, 240, 4);
   fu::FusionOptions o;
   o.method = kMethod;
   o.colour = kColour;
+  if (kScale > 0) o.fast.scale = kScale;
   cv::Mat fused;  // reused from frame to frame, as in the pipeline
   for (auto _ : state) {
     fu::fuse(ir, vis, fused, o);
@@ -93,6 +94,7 @@ BENCHMARK(BM_InfraredAgc16)->Apply(sizes);
 BENCHMARK(BM_InfraredAgc8)->Apply(sizes);
 BENCHMARK(BM_VisibleContrast)->Apply(sizes);
 BENCHMARK_TEMPLATE(BM_Fusion, fu::FusionMethod::fast, fu::ColourMode::luminance)->Apply(sizes);
+BENCHMARK_TEMPLATE(BM_Fusion, fu::FusionMethod::fast, fu::ColourMode::luminance, 4)->Apply(sizes);
 BENCHMARK_TEMPLATE(BM_Fusion, fu::FusionMethod::fast, fu::ColourMode::per_channel)->Apply(sizes);
 BENCHMARK_TEMPLATE(BM_Fusion, fu::FusionMethod::vsmwls, fu::ColourMode::luminance)->Apply(sizes);
 BENCHMARK_TEMPLATE(BM_Fusion, fu::FusionMethod::vsmwls, fu::ColourMode::per_channel)->Apply(sizes);

@@ -17,8 +17,8 @@
 namespace thermovis::fuse {
 
 struct FastFusionParams {
-  int scale = 4;                 // reduction of the working grid (1 = full resolution)
-  int base_box_px = 31;          // side of the base-layer box mean, full-resolution pixels
+  int scale = 8;         // reduction of the working grid (1 = full resolution); 4: better, slower
+  int base_box_px = 31;  // side of the base-layer box mean, full-resolution pixels
   double saliency_sigma_px = 5;  // Gaussian smoothing of |Laplacian|, full-resolution pixels
   int base_radius_px = 45;       // base weight guided filter radius, full-resolution pixels
   double base_eps = 0.3;         // intensities in [0, 1]
