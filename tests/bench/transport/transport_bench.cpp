@@ -88,15 +88,10 @@ double percentile(std::vector<double> values, double p) {
   return values[std::min(index, values.size() - 1)];
 }
 
+// Receives frames for the benchmark iterations on `domain`; reader and participant are gone
+// when it returns.
 template <class Frame>
-void BM_FrameLatency(benchmark::State& state, const char* type, Path path) {
-  static int run = 0;
-  const int domain = 100 + static_cast<int>((::getpid() + run++) % 100);
-  thermovis::test::ChildProcess publisher(
-      {"/proc/self/exe", "--publisher", type, path == Path::loaned ? "loaned" : "copied",
-       std::to_string(domain), std::to_string(kFrames + kWarmUp + 20)},
-      std::filesystem::temp_directory_path() /
-          ("transport_bench_publisher_" + std::to_string(domain) + ".log"));
+void measure(benchmark::State& state, int domain, Path path) {
   tt::Participant participant(loopback(domain, "transport_bench subscriber"));
   tt::Reader<Frame> reader(participant, kTopic, tt::frame_topic_qos(1s));
   if (!reader.wait_for_writers(1, 30s)) {
@@ -138,6 +133,27 @@ void BM_FrameLatency(benchmark::State& state, const char* type, Path path) {
   state.counters["MB"] = static_cast<double>(sizeof(Frame)) / 1e6;
   state.SetBytesProcessed(static_cast<std::int64_t>(state.iterations()) *
                           static_cast<std::int64_t>(sizeof(Frame)));
+}
+
+template <class Frame>
+void BM_FrameLatency(benchmark::State& state, const char* type, Path path) {
+  static int run = 0;
+  const int domain = 100 + static_cast<int>((::getpid() + run++) % 100);
+  const auto log = std::filesystem::temp_directory_path() /
+                   ("transport_bench_publisher_" + std::to_string(domain) + ".log");
+  thermovis::test::ChildProcess publisher(
+      {"/proc/self/exe", "--publisher", type, path == Path::loaned ? "loaned" : "copied",
+       std::to_string(domain), std::to_string(kFrames + kWarmUp + 20)},
+      log);
+  measure<Frame>(state, domain, path);
+  // The publisher leaves once this reader is gone; a clean exit removes its shared-memory pool
+  // (killing it would leave the pool in /dev/shm).
+  if (publisher.wait(30s) != 0) {
+    const std::string error = "publisher failed: " + publisher.log();
+    state.SkipWithError(error.c_str());
+    return;
+  }
+  std::filesystem::remove(log);
 }
 
 // Infrared stereo frame: 2 x 1024 x 768 x 16 bit = 3.1 MB; visible: 2 x 1920 x 1080 x 3 = 12.4 MB.
