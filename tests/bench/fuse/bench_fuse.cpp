@@ -1,6 +1,6 @@
 // Per-stage timings of enhancement and fusion on one core (cv::setNumThreads(1)), at the rig's
 // infrared (1024x768) and visible (1920x1080) sizes, on seeded synthetic frames. After the runs,
-// the ratio between the fusion modes at each size is printed from the same run's figures.
+// the ratio between the fusion modes at each size is printed from the same run's CPU times.
 //   bench_fuse [--benchmark_filter=...]
 #include <benchmark/benchmark.h>
 
@@ -105,7 +105,7 @@ class RatioReporter : public benchmark::ConsoleReporter {
   void ReportRuns(const std::vector<Run>& runs) override {
     for (const auto& run : runs) {
       if (run.run_type == Run::RT_Iteration || run.aggregate_name == "mean") {
-        ms_[run.benchmark_name()] = run.GetAdjustedRealTime();
+        ms_[run.benchmark_name()] = run.GetAdjustedCPUTime();  // CPU: the machine may be shared
       }
     }
     ConsoleReporter::ReportRuns(runs);
