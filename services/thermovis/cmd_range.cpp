@@ -6,12 +6,15 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <optional>
 #include <stdexcept>
 
 #include "command.hpp"
+#include "thermovis/detect/detectors.hpp"
 #include "thermovis/range/stereo_ranger.hpp"
 #include "thermovis/runtime/rig_io.hpp"
 
@@ -30,6 +33,8 @@ struct Options {
   int fast_threshold = 0;
   int patch_radius = 0;
   bool surface = false;
+  bool detect = false;
+  double camera_height_m = 1.4;
   bool json = false;
 };
 
@@ -106,11 +111,17 @@ int run_range(const Options& opt) {
   const fs::path dir(opt.images);
   if (!fs::is_directory(dir)) throw std::runtime_error("--images: no folder " + opt.images);
   const rg::Mode mode = rg::parse_mode(opt.mode);
-  fs::path boxes_path = opt.boxes.empty() ? dir / "truth.json" : fs::path(opt.boxes);
-  if (!fs::exists(boxes_path)) {
-    throw std::runtime_error("no boxes: give --boxes B.json (no truth.json in " + opt.images + ")");
+  if (opt.detect && !opt.boxes.empty())
+    throw std::invalid_argument("give --boxes or --detect, not both");
+  std::vector<BoxRequest> requests;
+  if (!opt.detect) {
+    const fs::path boxes_path = opt.boxes.empty() ? dir / "truth.json" : fs::path(opt.boxes);
+    if (!fs::exists(boxes_path)) {
+      throw std::runtime_error("no boxes: give --boxes B.json or --detect (no truth.json in " +
+                               opt.images + ")");
+    }
+    requests = read_boxes(boxes_path);
   }
-  const std::vector<BoxRequest> requests = read_boxes(boxes_path);
   const auto rig = thermovis::runtime::load_rig(
       opt.rig.empty() ? thermovis::runtime::default_rig_path() : fs::path(opt.rig));
   rg::RawFrames raw;
@@ -120,6 +131,26 @@ int run_range(const Options& opt) {
   raw.infrared_right = read_image(dir / "infrared_right.png", cv::IMREAD_UNCHANGED);
   const rg::StereoRanger ranger(rig);
   const rg::RectifiedFrames frames = ranger.rectify(raw);
+  if (opt.detect) {
+    // Warm blobs on the infrared grid's raw counts (the infrared camera 60 mm below the visible
+    // one in the paper rig: its height is given by --camera-height), boxes carried to the
+    // visible grid for the visible and fused modes.
+    if (frames.infrared_counts_left.empty()) {
+      throw std::runtime_error("--detect needs 16-bit infrared counts (infrared_left.png)");
+    }
+    thermovis::detect::WarmBlobOptions wo;
+    wo.camera_height_m = opt.camera_height_m;
+    const auto found = thermovis::detect::detect_warm_blobs(
+        frames.infrared_counts_left, ranger.geometry(rg::Mode::infrared).grid, wo);
+    for (size_t i = 0; i < found.size(); ++i) {
+      BoxRequest b;
+      b.id = "detection" + std::to_string(i);
+      b.cls = found[i].cls;
+      b.rectified =
+          mode == rg::Mode::infrared ? found[i].box : ranger.infrared_box_to_visible(found[i].box);
+      requests.push_back(b);
+    }
+  }
   rg::RangerOptions options;
   options.match.method = thermovis::match::parse_method(opt.method);
   options.min_distance_m = opt.min_distance_m;
@@ -203,6 +234,11 @@ THERMOVIS_COMMAND(
       app.add_flag("--surface", opt->surface,
                    "report the distance of the target's visible surface (default: "
                    "its centre, by the class's known depth)");
+      app.add_flag("--detect", opt->detect,
+                   "detect people as warm blobs in the infrared image instead of reading boxes");
+      app.add_option("--camera-height", opt->camera_height_m,
+                     "infrared camera height above the ground, m (--detect's size check)")
+          ->capture_default_str();
       app.add_flag("--json", opt->json, "one JSON object per target");
       return [opt] { return run_range(*opt); };
     });

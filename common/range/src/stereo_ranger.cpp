@@ -134,6 +134,9 @@ RectifiedFrames StereoRanger::rectify(const RawFrames& raw) const {
   out.infrared_raw_right =
       agc_of(raw.infrared_right, rig.camera(rig.infrared.right), "infrared right");
   out.infrared_left = remap_with(out.infrared_raw_left, impl_->infrared.left_map);
+  if (raw.infrared_left.type() == CV_16UC1) {
+    out.infrared_counts_left = remap_with(raw.infrared_left, impl_->infrared.left_map);
+  }
   out.infrared_right = remap_with(out.infrared_raw_right, impl_->infrared.right_map);
   return out;
 }
@@ -167,6 +170,35 @@ cv::Rect StereoRanger::raw_box_to_rectified(Mode mode, double x_min, double y_mi
   const int x0 = static_cast<int>(std::floor(lo_x)), y0 = static_cast<int>(std::floor(lo_y));
   return {x0, y0, static_cast<int>(std::ceil(hi_x)) - x0 + 1,
           static_cast<int>(std::ceil(hi_y)) - y0 + 1};
+}
+
+cv::Rect StereoRanger::infrared_box_to_visible(const cv::Rect& box) const {
+  const RangingGeometry& from = impl_->infrared_geometry;
+  const RangingGeometry& to = impl_->visible_geometry;
+  const Eigen::Matrix3d R =
+      to.T_ref_left_rect.rotation().transpose() * from.T_ref_left_rect.rotation();
+  double lo_x = 1e30, lo_y = 1e30, hi_x = -1e30, hi_y = -1e30;
+  const int steps = 8;
+  for (int i = 0; i <= steps; ++i) {
+    const double t = static_cast<double>(i) / steps;
+    const double x0 = box.x - 0.5, y0 = box.y - 0.5, x1 = box.br().x - 0.5, y1 = box.br().y - 0.5;
+    for (const Eigen::Vector2d& p :
+         {Eigen::Vector2d(x0 + t * (x1 - x0), y0), Eigen::Vector2d(x0 + t * (x1 - x0), y1),
+          Eigen::Vector2d(x0, y0 + t * (y1 - y0)), Eigen::Vector2d(x1, y0 + t * (y1 - y0))}) {
+      Eigen::Vector3d ray;
+      Eigen::Vector2d q;
+      if (!from.grid.unproject(p, ray) || !to.grid.project(R * ray, q)) continue;
+      lo_x = std::min(lo_x, q.x());
+      lo_y = std::min(lo_y, q.y());
+      hi_x = std::max(hi_x, q.x());
+      hi_y = std::max(hi_y, q.y());
+    }
+  }
+  if (lo_x > hi_x) return {};
+  const int x = static_cast<int>(std::lround(lo_x + 0.5)),
+            y = static_cast<int>(std::lround(lo_y + 0.5));
+  return {x, y, static_cast<int>(std::lround(hi_x + 0.5)) - x,
+          static_cast<int>(std::lround(hi_y + 0.5)) - y};
 }
 
 RangedTarget StereoRanger::range(const RectifiedFrames& frames, Mode mode, const cv::Rect& box,

@@ -41,6 +41,7 @@ struct RectifiedFrames {
   cv::Mat visible_left, visible_right;            // visible grid
   cv::Mat infrared_left, infrared_right;          // infrared grid, after the AGC
   cv::Mat infrared_raw_left, infrared_raw_right;  // raw AGC'd infrared (for fused registration)
+  cv::Mat infrared_counts_left;  // infrared grid, raw counts (CV_16UC1; for warm-blob detection)
 };
 
 struct RangerOptions {
@@ -88,6 +89,10 @@ class StereoRanger {
   // to the mode's rectified left grid: the bounding box of its border's rays.
   cv::Rect raw_box_to_rectified(Mode mode, double x_min, double y_min, double x_max,
                                 double y_max) const;
+
+  // A box of the infrared left rectified grid on the visible left rectified grid (rays at
+  // infinity: the infrared camera's offset shifts a target at L by offset / L rad).
+  cv::Rect infrared_box_to_visible(const cv::Rect& box) const;
 
   const RangingGeometry& geometry(Mode mode) const;
 

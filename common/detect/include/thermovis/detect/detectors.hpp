@@ -1,0 +1,61 @@
+#pragma once
+// Target detection in rectified images, offline (no downloaded weights):
+//  - infrared warm blobs: pixels warmer than the frame's background (median + k robust sigmas of
+//    the raw counts, so the AGC's equalisation does not move the threshold), grouped into
+//    connected components, kept when their shape is upright and their height matches a person
+//    standing on the ground at the distance the blob's foot row gives (level rig at a known
+//    height: distance = height / tan(angle below the horizon));
+//  - visible people: OpenCV's HOG people detector (Dalal-Triggs, 64 x 128 window) on the image
+//    reduced by `scale`;
+//  - combination: boxes of both sources on one grid merged by non-maximum suppression.
+// Boxes are in the pixels of the rectified image given (x = column, y = row).
+#include <opencv2/core/mat.hpp>
+#include <string>
+#include <vector>
+
+#include "thermovis/camera/rectified.hpp"
+
+namespace thermovis::detect {
+
+struct Detection {
+  cv::Rect box;
+  std::string cls = "person";
+  double score =
+      0.0;  // warm blob: mean excess over the threshold in robust sigmas; HOG: SVM margin
+  std::string source;  // "infrared", "visible", "fused", "external"
+};
+
+struct WarmBlobOptions {
+  double k_sigma = 2.0;          // threshold: background median + k * 1.4826 * MAD
+  double min_excess_counts = 0;  // and at least this many counts over the median
+  int min_area_px = 15;
+  double min_aspect = 1.3;  // height / width of a standing person's box
+  double max_aspect = 6.0;
+  double person_height_m = 1.75;
+  double camera_height_m = 1.4;   // camera centre above the ground
+  double height_ratio_min = 0.5;  // measured / expected box height
+  double height_ratio_max = 1.8;
+};
+
+// infrared: rectified CV_16UC1 counts or CV_8UC1 (pixels of value 0 are treated as outside the
+// field); grid: its rectified grid (rows give the angle below the horizon). Throws
+// std::invalid_argument for another type or a size different from the grid's.
+std::vector<Detection> detect_warm_blobs(const cv::Mat& infrared,
+                                         const camera::RectifiedCamera& grid,
+                                         const WarmBlobOptions& options = {});
+
+struct HogOptions {
+  double scale = 1.0;          // image reduction before the detector (0.5 = half size)
+  double hit_threshold = 0.0;  // SVM margin
+  double pyramid_scale = 1.05;
+};
+
+// visible: CV_8UC1 or CV_8UC3 rectified image.
+std::vector<Detection> detect_people_hog(const cv::Mat& visible, const HogOptions& options = {});
+
+// Non-maximum suppression: boxes overlapping a higher-scored one by IoU > iou are dropped.
+std::vector<Detection> merge_detections(std::vector<Detection> detections, double iou = 0.3);
+
+double intersection_over_union(const cv::Rect& a, const cv::Rect& b);
+
+}  // namespace thermovis::detect
