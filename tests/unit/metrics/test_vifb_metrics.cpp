@@ -32,7 +32,8 @@ std::vector<std::string> vifb_names(const std::filesystem::path& dir) {
 }
 
 // Per image, each metric of VIFB's published VSMWLS JPEG against the published value, and the
-// means over the 21 pairs. Measured: every metric but Qabf within 5e-5 (relative) on every image.
+// means, on every third pair (7 of 21, for run time; the fusion test scores all 21 pairs, whose
+// JPEGs are these). Measured: every metric but Qabf within 5e-5 (relative) on every image.
 // Qabf is within 0.7 % per image and 0.05 % on the mean: its atan (not atan2) flips the edge
 // angle by pi where a horizontal Sobel response changes sign, so the one-grey-level differences
 // between MATLAB's JPEG decoder and libjpeg-turbo move it more than the other metrics.
@@ -41,9 +42,11 @@ TEST(VifbMetrics, PublishedVsmwlsImagesGivePublishedValues) {
   const auto published = vm::load_vifb_per_image(dir / "vifb_metrics_per_image.csv");
   const auto names = vifb_names(dir);
   ASSERT_EQ(names.size(), 21u);
+  std::vector<std::string> subset;
+  for (std::size_t i = 0; i < names.size(); i += 3) subset.push_back(names[i]);
   std::array<double, vm::kMetricCount> worst{};
   vm::MetricValues sum_ours, sum_theirs;
-  for (const auto& name : names) {
+  for (const auto& name : subset) {
     const cv::Mat vis = read(dir / "VI" / (name + ".jpg"));
     const cv::Mat ir = read(dir / "IR" / (name + ".jpg"));
     const cv::Mat fused = read(dir / "reference_fused_VSMWLS" / (name + "_VSMWLS.jpg"));
