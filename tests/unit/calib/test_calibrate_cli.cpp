@@ -52,6 +52,17 @@ TEST(CalibrateCli, MonoWritesYamlAndOcamFileAndJson) {
   EXPECT_NEAR(yaml.pol[0], j.at("model").at("pol").at(0).get<double>(), 1e-6);
   EXPECT_NEAR(ocam.xc, yaml.xc, 1e-3);
   EXPECT_NEAR(yaml.pol[0], -131.9, 1.0);  // Urban 2015: -131.92
+
+  // The corners written by --save-corners calibrate to the same result through --corners.
+  const auto saved = run("calibrate --images " + dir.string() + " --board 6x7 --square 30 --out " +
+                         (out / "a.yaml").string() + " --save-corners " +
+                         (out / "corners.json").string() + " --json");
+  ASSERT_EQ(saved.exit_code, 0) << saved.output;
+  const auto again = run("calibrate --corners " + (out / "corners.json").string() +
+                         " --board 6x7 --square 30 --out " + (out / "b.yaml").string() + " --json");
+  ASSERT_EQ(again.exit_code, 0) << again.output;
+  EXPECT_NEAR(nlohmann::json::parse(again.output).at("rms_2d_px").get<double>(),
+              j.at("rms_2d_px").get<double>(), 1e-6);
 }
 
 TEST(CalibrateCli, StereoWritesALoadableRig) {
