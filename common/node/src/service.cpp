@@ -36,7 +36,6 @@ void add_common_options(CLI::App& app, CommonOptions& options) {
                  "DDS participant profile: thermovis_host (shared memory) or thermovis_loopback");
   app.add_option("--profiles-file", options.profiles_file, "DDS XML profiles file");
   app.add_option("--rig", options.rig, "rig YAML (default deploy/rigs/paper.yaml)");
-  app.add_option("--config", options.config, "service configuration YAML");
 }
 
 std::unique_ptr<transport::Participant> make_participant(const CommonOptions& options) {
@@ -51,13 +50,14 @@ std::unique_ptr<transport::Participant> make_participant(const CommonOptions& op
 }
 
 void append_stamp(PipelineStamps& stamps, Stage stage, std::int64_t start_ns, std::int64_t end_ns) {
-  const std::uint32_t capacity = static_cast<std::uint32_t>(stamps.stamps().size());
-  const std::uint32_t slot = std::min(stamps.count(), capacity - 1);
-  StageStamp& stamp = stamps.stamps()[slot];
+  auto& entries = stamps.stamps();
+  std::size_t slot = 0;
+  while (slot + 1 < entries.size() && entries[slot].stage() != STAGE_NONE) ++slot;
+  StageStamp& stamp = entries[slot];
   stamp.stage(stage);
-  stamp.start_ns(start_ns);
+  stamp.duration_us(
+      static_cast<std::uint32_t>(std::max<std::int64_t>(0, end_ns - start_ns) / 1000));
   stamp.end_ns(end_ns);
-  stamps.count(slot + 1);
 }
 
 }  // namespace thermovis::node

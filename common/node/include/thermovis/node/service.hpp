@@ -1,6 +1,6 @@
 #pragma once
 // What every thermovis service shares: the stop flag its signal handlers set, the options every
-// service takes (domain, DDS profile, rig, config) and the per-stage time stamps it appends.
+// service takes (domain, DDS profile, rig) and the per-stage time stamps it appends.
 #include <CLI/CLI.hpp>
 #include <atomic>
 #include <filesystem>
@@ -23,16 +23,16 @@ struct CommonOptions {
   std::string profile = transport::kHostProfile;
   std::filesystem::path profiles_file;  // empty: the shipped file of `profile`
   std::filesystem::path rig;            // empty: runtime::default_rig_path()
-  std::filesystem::path config;         // optional service config YAML
 };
 
-// Adds --domain, --profile, --profiles-file, --rig and --config to `app`.
+// Adds --domain, --profile, --profiles-file and --rig to `app`.
 void add_common_options(CLI::App& app, CommonOptions& options);
 
 std::unique_ptr<transport::Participant> make_participant(const CommonOptions& options);
 
-// Appends one stage's stamp; a full stamp list keeps its first entries (and the last stage's
-// stamp replaces the final slot so the end of the pipeline is never lost).
+// Fills the first unused stamp (stage == STAGE_NONE) with this stage's processing time and end;
+// a full list keeps its first entries and the last slot takes the newest stage, so the end of
+// the pipeline is never lost.
 void append_stamp(PipelineStamps& stamps, Stage stage, std::int64_t start_ns, std::int64_t end_ns);
 
 }  // namespace thermovis::node

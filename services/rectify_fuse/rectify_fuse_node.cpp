@@ -1,0 +1,138 @@
+#include "rectify_fuse_node.hpp"
+
+#include "thermovis/node/frame_codec.hpp"
+#include "thermovis/node/service.hpp"
+#include "thermovis/transport/clock.hpp"
+#include "thermovis/transport/qos.hpp"
+#include "thermovis/transport/topics.hpp"
+
+namespace thermovis::rectify_fuse {
+namespace {
+
+using node::Eye;
+
+// Readers of raw frames: this node holds at most one sample of each band while pairing.
+transport::TopicQos raw_qos(std::chrono::nanoseconds deadline) {
+  return transport::frame_topic_qos(deadline, 2, 2);
+}
+
+std::unique_ptr<fpga::FastRemapper> remapper(const cv::Mat& map, const camera::RigCamera& camera) {
+  return std::make_unique<fpga::FastRemapper>(
+      fpga::FixedPointMap::from_float(map, camera.model->image_size()));
+}
+
+void copy_header(const VisibleStereoFrame& from, GridStereoFrame& to, std::int64_t start_ns) {
+  to.seq(from.seq());
+  to.capture_time_ns(from.capture_time_ns());
+  to.stamps(from.stamps());
+  node::append_stamp(to.stamps(), STAGE_RECTIFY_FUSE, start_ns, transport::now_ns());
+}
+
+}  // namespace
+
+RectifyFuseNode::RectifyFuseNode(transport::Participant& participant, const camera::Rig& rig,
+                                 const RectifyFuseConfig& config, const std::string& service_name)
+    : config_(config),
+      visible_in_(participant, transport::topics::kVisibleFrames, raw_qos(config.deadline)),
+      infrared_in_(participant, transport::topics::kInfraredFrames, raw_qos(config.deadline)),
+      rectified_visible_out_(participant, transport::topics::kRectifiedVisible,
+                             transport::frame_topic_qos(config.deadline)),
+      rectified_infrared_out_(participant, transport::topics::kRectifiedInfrared,
+                              transport::frame_topic_qos(config.deadline)),
+      fused_out_(participant, transport::topics::kFused,
+                 transport::frame_topic_qos(config.deadline)),
+      health_(participant, service_name, [this] {
+        return std::vector<transport::TopicCountersSnapshot>{
+            visible_in_.counters(), infrared_in_.counters(), rectified_visible_out_.counters(),
+            rectified_infrared_out_.counters(), fused_out_.counters()};
+      }) {
+  health_.set_state(HEALTH_STARTING, "computing the composed maps");
+  const rectify::StereoGeometry geometry = node::pipeline_geometry(rig, config_.grid);
+  grid_size_ = geometry.grid.image_size();
+  if (static_cast<std::size_t>(grid_size_.area()) * 3 > GRID_IMAGE_BYTES) {
+    throw std::invalid_argument("rectified grid " + std::to_string(grid_size_.width) + "x" +
+                                std::to_string(grid_size_.height) +
+                                " does not fit the GridStereoFrame type; choose a smaller width");
+  }
+  // Each eye's two cameras on that eye's rectified frame; the infrared ones registered at the
+  // configured distance (their centres are not the eye's).
+  const double registration = config_.grid.registration_distance_m;
+  const auto map_for = [&](const std::string& camera, const Eigen::Isometry3d& T_ref_rect,
+                           double distance) {
+    const auto& cam = rig.camera(camera);
+    return remapper(rectify::build_map(cam, T_ref_rect, geometry.grid, distance), cam);
+  };
+  visible_maps_[0] = map_for(rig.visible.left, geometry.T_ref_left_rect, 0.0);
+  visible_maps_[1] = map_for(rig.visible.right, geometry.T_ref_right_rect, 0.0);
+  infrared_maps_[0] = map_for(rig.infrared.left, geometry.T_ref_left_rect, registration);
+  infrared_maps_[1] = map_for(rig.infrared.right, geometry.T_ref_right_rect, registration);
+  agc_ = {enhance::InfraredAgc(config_.agc), enhance::InfraredAgc(config_.agc)};
+  health_.set_state(HEALTH_STARTING, "grid " + std::to_string(grid_size_.width) + "x" +
+                                         std::to_string(grid_size_.height) +
+                                         ", waiting for frames");
+}
+
+void RectifyFuseNode::run() {
+  using std::chrono::milliseconds;
+  while (!node::stop_requested()) {
+    health_.tick();
+    if (!visible_in_.wait_for_data(milliseconds(100))) continue;
+    auto visible = visible_in_.take();
+    if (visible.empty()) continue;
+    // Only the newest capture is worth processing; older ones are dropped (never queued).
+    stats_.dropped += visible.size() - 1;
+    const VisibleStereoFrame& vis = visible[visible.size() - 1];
+    // Its infrared partner (same seq) is published with it: look for it briefly.
+    bool done = false;
+    for (int attempt = 0; attempt < 10 && !done && !node::stop_requested(); ++attempt) {
+      auto infrared = infrared_in_.take();
+      for (std::size_t i = 0; i < infrared.size() && !done; ++i) {
+        if (infrared[i].seq() != vis.seq()) continue;
+        try {
+          process(vis, infrared[i]);
+          ++stats_.processed;
+          health_.frame_processed();
+        } catch (const std::exception& e) {
+          ++stats_.bad;
+          health_.bad_input(e.what());
+        }
+        done = true;
+      }
+      if (!infrared.empty() && infrared[infrared.size() - 1].seq() > vis.seq()) break;  // gone
+      if (!done) infrared_in_.wait_for_data(milliseconds(2));
+    }
+    if (!done) ++stats_.dropped;
+  }
+  health_.set_state(HEALTH_STOPPING, "processed " + std::to_string(stats_.processed));
+}
+
+void RectifyFuseNode::process(const VisibleStereoFrame& visible,
+                              const InfraredStereoFrame& infrared) {
+  const std::int64_t start_ns = transport::now_ns();
+  auto out_visible = rectified_visible_out_.loan();
+  auto out_infrared = rectified_infrared_out_.loan();
+  auto out_fused = fused_out_.loan();
+  for (const Eye eye : {Eye::left, Eye::right}) {
+    const int i = eye == Eye::left ? 0 : 1;
+    // view() checks the headers; the remappers check the sizes against the rig's cameras.
+    const cv::Mat raw_visible = node::view(visible, eye);
+    const cv::Mat raw_infrared = node::view(infrared, eye);
+    cv::Mat rect_visible = node::prepare(*out_visible, eye, grid_size_, CV_8UC3);
+    visible_maps_[i]->remap(raw_visible, rect_visible);
+    infrared_maps_[i]->remap(raw_infrared, infrared_scratch_);
+    cv::Mat rect_infrared = node::prepare(*out_infrared, eye, grid_size_, CV_8UC1);
+    agc_[i].process(infrared_scratch_).copyTo(rect_infrared);
+    const cv::Mat visible_for_fusion =
+        config_.enhance_visible ? enhance::enhance_visible(rect_visible) : rect_visible;
+    cv::Mat fused = node::prepare(*out_fused, eye, grid_size_, CV_8UC3);
+    fuse::fuse(rect_infrared, visible_for_fusion, config_.fusion).copyTo(fused);
+  }
+  copy_header(visible, *out_visible, start_ns);
+  copy_header(visible, *out_infrared, start_ns);
+  copy_header(visible, *out_fused, start_ns);
+  rectified_visible_out_.publish(std::move(out_visible));
+  rectified_infrared_out_.publish(std::move(out_infrared));
+  fused_out_.publish(std::move(out_fused));
+}
+
+}  // namespace thermovis::rectify_fuse

@@ -1,0 +1,183 @@
+#include "supervisor.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "thermovis/transport/qos.hpp"
+#include "thermovis/transport/topics.hpp"
+
+namespace thermovis::supervisor {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// The health key a manifest service reports under: "bridge" -> "thermovis-bridge".
+std::string health_key(const std::string& service) { return "thermovis-" + service; }
+
+}  // namespace
+
+const char* stage_name(Stage stage) {
+  switch (stage) {
+    case STAGE_BRIDGE:
+      return "bridge";
+    case STAGE_RECTIFY_FUSE:
+      return "rectify-fuse";
+    case STAGE_DETECT:
+      return "detect";
+    case STAGE_MATCH:
+      return "match";
+    case STAGE_RANGE:
+      return "range";
+    default:
+      return "none";
+  }
+}
+
+double percentile(std::vector<double> values, double p) {
+  if (values.empty()) return 0.0;
+  std::sort(values.begin(), values.end());
+  const auto rank =
+      static_cast<std::size_t>(std::ceil(p / 100.0 * static_cast<double>(values.size())));
+  return values[std::clamp<std::size_t>(rank, 1, values.size()) - 1];
+}
+
+Supervisor::Supervisor(transport::Participant& participant, process::Manifest manifest,
+                       SupervisorConfig config)
+    : config_(std::move(config)),
+      group_(std::move(manifest), {config_.vars, config_.log_dir}),
+      timing_in_(participant, transport::topics::kTiming, transport::event_topic_qos(64)),
+      health_in_(participant, transport::topics::kHealth, transport::state_topic_qos()),
+      ranges_in_(participant, transport::topics::kRanges, transport::event_topic_qos(64)) {}
+
+Supervisor::~Supervisor() { stop(); }
+
+void Supervisor::start() {
+  started_ = Clock::now();
+  group_.start_all();
+}
+
+void Supervisor::stop() { group_.stop_all(); }
+
+std::vector<RangeArray> Supervisor::step() {
+  group_.poll();
+  take_timing();
+  take_health();
+  check_hung();
+  std::vector<RangeArray> out;
+  auto ranges = ranges_in_.take();
+  for (std::size_t i = 0; i < ranges.size(); ++i) out.push_back(ranges[i]);
+  return out;
+}
+
+void Supervisor::take_timing() {
+  auto samples = timing_in_.take();
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    const FrameTiming& t = samples[i];
+    const double latency_ms = static_cast<double>(t.output_time_ns() - t.capture_time_ns()) / 1e6;
+    latencies_ms_.push_back(latency_ms);
+    if (latencies_ms_.size() == 1) first_seq_ = t.frame_seq();
+    last_seq_ = std::max(last_seq_, t.frame_seq());
+    LateFrame late{t.frame_seq(), latency_ms, "none", 0.0};
+    for (const StageStamp& stamp : t.stamps().stamps()) {
+      if (stamp.stage() == STAGE_NONE) continue;
+      const double ms = stamp.duration_us() / 1000.0;
+      stage_ms_[stamp.stage()].push_back(ms);
+      if (ms > late.slowest_stage_ms) {
+        late.slowest_stage_ms = ms;
+        late.slowest_stage = stage_name(stamp.stage());
+      }
+    }
+    if (latency_ms > config_.latency_deadline_ms) late_.push_back(late);
+  }
+}
+
+void Supervisor::take_health() {
+  auto samples = health_in_.take();
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    const std::string service = samples[i].service().to_string();
+    health_[service] = samples[i];
+    last_health_[service] = Clock::now();
+  }
+}
+
+void Supervisor::check_hung() {
+  const auto now = Clock::now();
+  for (const auto& status : group_.status()) {
+    if (status.state != process::ServiceState::running) continue;
+    const auto it = last_health_.find(health_key(status.name));
+    const bool never = it == last_health_.end();
+    const double silent_s =
+        std::chrono::duration<double>(now - (never ? started_ : it->second)).count();
+    if ((never && silent_s > config_.startup_grace_s) ||
+        (!never && silent_s > config_.hung_after_s)) {
+      group_.restart(status.name,
+                     "no health for " + std::to_string(static_cast<int>(silent_s)) + " s (hung)");
+      last_health_.erase(health_key(status.name));
+    }
+  }
+}
+
+LatencySummary Supervisor::summary() const {
+  LatencySummary s;
+  s.frames = latencies_ms_.size();
+  s.p50_ms = percentile(latencies_ms_, 50);
+  s.p99_ms = percentile(latencies_ms_, 99);
+  s.max_ms =
+      latencies_ms_.empty() ? 0.0 : *std::max_element(latencies_ms_.begin(), latencies_ms_.end());
+  s.over_deadline = late_.size();
+  s.first_seq = first_seq_;
+  s.last_seq = last_seq_;
+  if (s.frames > 0)
+    s.dropped = (last_seq_ - first_seq_ + 1) -
+                std::min<std::uint64_t>(s.frames, last_seq_ - first_seq_ + 1);
+  for (const auto& [key, h] : health_) {
+    s.bad_inputs += h.errors();
+    for (const auto& topic : h.topics()) {
+      s.deadline_misses += topic.requested_deadline_missed() + topic.offered_deadline_missed();
+    }
+  }
+  for (const auto& status : group_.status())
+    s.restarts += static_cast<std::uint64_t>(status.restarts);
+  for (const auto& [stage, values] : stage_ms_) {
+    s.stages.push_back({stage_name(stage), percentile(values, 50), percentile(values, 99),
+                        *std::max_element(values.begin(), values.end())});
+  }
+  return s;
+}
+
+std::string summary_json(const LatencySummary& s) {
+  nlohmann::json stages = nlohmann::json::object();
+  for (const auto& st : s.stages)
+    stages[st.stage] = {{"p50_ms", st.p50_ms}, {"p99_ms", st.p99_ms}, {"max_ms", st.max_ms}};
+  return nlohmann::json{{"frames", s.frames},
+                        {"p50_ms", s.p50_ms},
+                        {"p99_ms", s.p99_ms},
+                        {"max_ms", s.max_ms},
+                        {"over_deadline", s.over_deadline},
+                        {"dropped", s.dropped},
+                        {"deadline_misses", s.deadline_misses},
+                        {"bad_inputs", s.bad_inputs},
+                        {"restarts", s.restarts},
+                        {"stages", stages}}
+      .dump();
+}
+
+std::string summary_text(const LatencySummary& s, double deadline_ms) {
+  std::ostringstream out;
+  out.setf(std::ios::fixed);
+  out.precision(2);
+  out << "frames " << s.frames << ", capture-to-output latency p50 " << s.p50_ms << " ms, p99 "
+      << s.p99_ms << " ms, max " << s.max_ms << " ms; over " << deadline_ms
+      << " ms: " << s.over_deadline << "; dropped " << s.dropped << "; DEADLINE QoS misses "
+      << s.deadline_misses << "; bad inputs " << s.bad_inputs << "; restarts " << s.restarts
+      << "\n";
+  for (const auto& st : s.stages) {
+    out << "  stage " << st.stage << ": p50 " << st.p50_ms << " ms, p99 " << st.p99_ms
+        << " ms, max " << st.max_ms << " ms\n";
+  }
+  return out.str();
+}
+
+}  // namespace thermovis::supervisor

@@ -1,0 +1,101 @@
+#pragma once
+// The supervisor: runs the services of a manifest (process::ProcessGroup), watches their health
+// over DDS (a service whose health stops arriving is restarted as hung), and measures every
+// frame's capture-to-output latency from the stamps the frames carry (thermovis/timing), with
+// the stage that used the time, against the latency deadline.
+#include <chrono>
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "thermovis/health.h"
+#include "thermovis/perception.h"
+#include "thermovis/process/process_group.hpp"
+#include "thermovis/transport/reader.hpp"
+
+namespace thermovis::supervisor {
+
+struct SupervisorConfig {
+  std::map<std::string, std::string> vars;  // manifest substitutions (bin, domain, ...)
+  std::filesystem::path log_dir;            // service logs
+  double latency_deadline_ms = 20.0;        // capture-to-output budget of one frame
+  double hung_after_s = 5.0;                // no health for this long (once seen): restart
+  double startup_grace_s = 20.0;            // a service that never reported is given this long
+};
+
+struct StageLatency {
+  std::string stage;
+  double p50_ms = 0.0, p99_ms = 0.0, max_ms = 0.0;
+};
+
+struct LatencySummary {
+  std::uint64_t frames = 0;  // frames that reached the output
+  double p50_ms = 0.0, p99_ms = 0.0, max_ms = 0.0;
+  std::uint64_t over_deadline = 0;    // frames whose capture-to-output latency exceeded it
+  std::uint64_t deadline_misses = 0;  // DEADLINE QoS misses over every service's topics
+  std::uint64_t bad_inputs = 0;       // errors reported in health
+  std::uint64_t restarts = 0;
+  std::uint64_t first_seq = 0, last_seq = 0;  // output frames seen
+  std::uint64_t dropped =
+      0;  // captures between first_seq and last_seq that never reached the output
+  std::vector<StageLatency> stages;
+};
+
+// One frame that went over the latency deadline, with the stage that used the most time.
+struct LateFrame {
+  std::uint64_t seq = 0;
+  double latency_ms = 0.0;
+  std::string slowest_stage;
+  double slowest_stage_ms = 0.0;
+};
+
+const char* stage_name(Stage stage);
+
+class Supervisor {
+ public:
+  Supervisor(transport::Participant& participant, process::Manifest manifest,
+             SupervisorConfig config);
+  ~Supervisor();
+
+  void start();
+  // Polls the processes and the topics once; returns the range results received since the last
+  // call (copies).
+  std::vector<RangeArray> step();
+  void stop();
+
+  LatencySummary summary() const;
+  std::vector<process::ServiceStatus> services() const { return group_.status(); }
+  const std::map<std::string, Health>& health() const { return health_; }
+  const std::vector<LateFrame>& late_frames() const { return late_; }
+
+ private:
+  void take_timing();
+  void take_health();
+  void check_hung();
+
+  SupervisorConfig config_;
+  process::ProcessGroup group_;
+  transport::Reader<FrameTiming> timing_in_;
+  transport::Reader<Health> health_in_;
+  transport::Reader<RangeArray> ranges_in_;
+  std::map<std::string, Health> health_;  // by service health key
+  std::map<std::string, std::chrono::steady_clock::time_point> last_health_;
+  std::chrono::steady_clock::time_point started_;
+  std::vector<double> latencies_ms_;
+  std::map<Stage, std::vector<double>> stage_ms_;
+  std::vector<LateFrame> late_;
+  std::uint64_t first_seq_ = 0, last_seq_ = 0;
+};
+
+// The summary as JSON (frames, p50_ms, p99_ms, max_ms, over_deadline, deadline_misses,
+// bad_inputs, restarts, stages) and as the lines a person reads.
+std::string summary_json(const LatencySummary& summary);
+std::string summary_text(const LatencySummary& summary, double deadline_ms);
+
+// p-th percentile (0..100) by nearest rank; 0 for an empty list.
+double percentile(std::vector<double> values, double p);
+
+}  // namespace thermovis::supervisor
