@@ -70,8 +70,9 @@ TEST(CalibrateCli, StereoWritesALoadableRig) {
   const fs::path out = thermovis::test::temp_dir("calibrate_cli_stereo");
   std::string left, right;
   for (int k : {1, 2, 3, 4, 5, 6}) {
-    left += " " + (dir / ("left0" + std::to_string(k) + ".jpg")).string();
-    right += " " + (dir / ("right0" + std::to_string(k) + ".jpg")).string();
+    const std::string index = std::to_string(k);
+    left.append(" ").append((dir / ("left0" + index + ".jpg")).string());
+    right.append(" ").append((dir / ("right0" + index + ".jpg")).string());
   }
   const auto r = run("calibrate --left" + left + " --right" + right +
                      " --board 9x6 --square 25 --pixel-pitch-um 6 --names cam.l,cam.r --out " +
