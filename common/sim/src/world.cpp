@@ -73,9 +73,21 @@ double around_axis(const Eigen::Vector3d& p, const Eigen::Vector3d& c, double ra
   return std::atan2(p.x() - c.x(), -(p.z() - c.z())) * radius;
 }
 
+// True when the ray (o, d) surely misses the primitive's bounding sphere, or meets it only
+// behind the origin: no hit is possible. d need not be exactly unit.
+bool misses_bound(const Primitive& prim, const Eigen::Vector3d& rel, const Eigen::Vector3d& d) {
+  const double b = rel.dot(d);
+  const double rr = rel.squaredNorm();
+  if (rr <= prim.bound_radius2) return false;  // the origin is inside the bound
+  if (b >= 0.0) return true;                   // outside and heading away
+  const double dd = d.squaredNorm();
+  return rr * dd - b * b > prim.bound_radius2 * dd;  // the line's distance from the centre
+}
+
 void intersect(const Primitive& prim, const Eigen::Vector3d& o, const Eigen::Vector3d& d,
                LocalHit& best) {
   const Eigen::Vector3d rel = o - prim.centre;
+  if (prim.kind != Primitive::Kind::sphere && misses_bound(prim, rel, d)) return;
   switch (prim.kind) {
     case Primitive::Kind::box: {
       double t_near = -std::numeric_limits<double>::infinity();
@@ -178,15 +190,23 @@ void intersect(const Primitive& prim, const Eigen::Vector3d& o, const Eigen::Vec
 
 // --- target shapes ------------------------------------------------------------------------------
 
+// A bounding radius squared with a relative margin far above rounding errors.
+double padded_radius2(double radius) {
+  const double padded = radius * (1.0 + 1e-6) + 1e-9;
+  return padded * padded;
+}
+
 Primitive box(Eigen::Vector3d centre, Eigen::Vector3d half, int texture) {
-  return {Primitive::Kind::box, centre, half, texture};
+  return {Primitive::Kind::box, centre, half, texture, padded_radius2(half.norm())};
 }
 Primitive cylinder(double y_bottom, double y_top, double rx, double rz, int texture) {
+  const double hy = 0.5 * std::abs(y_bottom - y_top);
   return {Primitive::Kind::cylinder, Eigen::Vector3d(0.0, 0.5 * (y_bottom + y_top), 0.0),
-          Eigen::Vector3d(rx, 0.5 * std::abs(y_bottom - y_top), rz), texture};
+          Eigen::Vector3d(rx, hy, rz), texture, padded_radius2(std::hypot(std::max(rx, rz), hy))};
 }
 Primitive sphere(Eigen::Vector3d centre, double radius, int texture) {
-  return {Primitive::Kind::sphere, centre, Eigen::Vector3d(radius, radius, radius), texture};
+  return {Primitive::Kind::sphere, centre, Eigen::Vector3d(radius, radius, radius), texture,
+          padded_radius2(radius)};
 }
 
 CompiledTarget compile_target(const Scene& scene, const Target& raw, std::uint16_t id) {

@@ -46,6 +46,9 @@ struct Primitive {
   // sphere: radius in x.
   Eigen::Vector3d half = Eigen::Vector3d::Zero();
   int texture = 0;
+  // Squared radius of a sphere about `centre` that holds the primitive, with a margin: a ray
+  // that passes outside it cannot hit the primitive (a cheap test before the exact one).
+  double bound_radius2 = std::numeric_limits<double>::infinity();
 };
 
 struct Hit {
