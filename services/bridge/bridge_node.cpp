@@ -28,7 +28,7 @@ BridgeNode::BridgeNode(transport::Participant& participant, std::unique_ptr<Fram
 }
 
 bool BridgeNode::publish_capture(std::int64_t index) {
-  const std::int64_t capture_ns = transport::now_ns();
+  std::int64_t capture_ns = transport::now_ns();
   std::optional<transport::Loan<VisibleStereoFrame>> vis;
   std::optional<transport::Loan<InfraredStereoFrame>> ir;
   try {
@@ -54,6 +54,8 @@ bool BridgeNode::publish_capture(std::int64_t index) {
     health_.bad_input("capture " + std::to_string(index) + ": " + e.what());
     return true;
   }
+  // A source that knows when its capture was exposed (a device) sets the pipeline's time zero.
+  if (const auto exposed_ns = source_->capture_time_ns()) capture_ns = *exposed_ns;
   const std::int64_t done_ns = transport::now_ns();
   (*vis)->seq(static_cast<std::uint64_t>(index));
   (*vis)->capture_time_ns(capture_ns);
@@ -74,12 +76,22 @@ void BridgeNode::run() {
   using Clock = std::chrono::steady_clock;
   const auto period = std::chrono::duration_cast<Clock::duration>(
       std::chrono::duration<double>(1.0 / config_.rate_hz));
+  // A self-paced source (a device) waits for its own captures inside fill(): no pacing here.
+  const bool paced = !source_->self_paced();
   auto next = Clock::now();
   for (std::int64_t index = 0; !node::stop_requested(); ++index) {
     if (config_.frames > 0 && index >= config_.frames) break;
-    std::this_thread::sleep_until(next);
+    if (paced) std::this_thread::sleep_until(next);
+    const std::uint64_t dropped_before = stats_.dropped;
     if (!publish_capture(index)) break;
     health_.tick();
+    if (!paced) {
+      // A dropped capture never reached the source's wait: give readers a moment to return a
+      // sample instead of spinning.
+      if (stats_.dropped != dropped_before)
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      continue;
+    }
     next += period;
     // Fell behind by more than a period (a slow source or a busy machine): skip the captures
     // that are already late rather than bursting them out.
@@ -90,8 +102,11 @@ void BridgeNode::run() {
       ++stats_.dropped;
     }
   }
+  stats_.source_skipped = source_->skipped();
   health_.set_state(HEALTH_STOPPING, "published " + std::to_string(stats_.published) +
-                                         ", dropped " + std::to_string(stats_.dropped));
+                                         ", dropped " + std::to_string(stats_.dropped) +
+                                         ", source skipped " +
+                                         std::to_string(stats_.source_skipped));
 }
 
 }  // namespace thermovis::bridge

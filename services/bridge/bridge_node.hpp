@@ -15,7 +15,7 @@
 namespace thermovis::bridge {
 
 struct BridgeConfig {
-  double rate_hz = 50.0;    // captures per second
+  double rate_hz = 50.0;    // captures per second (self-paced sources: ignored)
   std::int64_t frames = 0;  // stop after this many captures; 0 = run until stopped
   std::chrono::nanoseconds deadline{20'000'000};  // DEADLINE QoS period of the frame topics
   std::int32_t depth = 2;                         // KEEP_LAST depth of the frame topics
@@ -23,9 +23,10 @@ struct BridgeConfig {
 };
 
 struct BridgeStats {
-  std::uint64_t published = 0;  // captures published (both frames)
-  std::uint64_t dropped = 0;    // captures lost: no free sample, or the loop fell behind
-  std::uint64_t bad = 0;        // captures the source could not deliver
+  std::uint64_t published = 0;       // captures published (both frames)
+  std::uint64_t dropped = 0;         // captures lost: no free sample, or the loop fell behind
+  std::uint64_t bad = 0;             // captures the source could not deliver
+  std::uint64_t source_skipped = 0;  // captures the source lost before the bridge took them
 };
 
 class BridgeNode {
@@ -33,6 +34,7 @@ class BridgeNode {
   BridgeNode(transport::Participant& participant, std::unique_ptr<FrameSource> source,
              const BridgeConfig& config, const std::string& service_name);
   // Runs until node::stop_requested(), the configured frame count or the end of the source.
+  // Paces the source at rate_hz unless the source paces itself (FrameSource::self_paced).
   void run();
   BridgeStats stats() const { return stats_; }
 

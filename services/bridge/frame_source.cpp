@@ -1,11 +1,17 @@
 #include "frame_source.hpp"
 
+#include <algorithm>
+#include <filesystem>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 #include <sstream>
 #include <stdexcept>
+#include <system_error>
+#include <thread>
 #include <vector>
 
+#include "thermovis/fpga/ring.hpp"
 #include "thermovis/runtime/rig_io.hpp"
 #include "thermovis/runtime/scene_io.hpp"
 #include "thermovis/sim/simulated_rig.hpp"
@@ -13,14 +19,30 @@
 namespace thermovis::bridge {
 namespace {
 
+// The simulated rig. Live, every capture is rendered (about 20 ms of CPU for the street scene);
+// with `prerender` N > 0, N captures are rendered at start and each fill is a copy of capture
+// index % N: cheap, but moving targets repeat every N captures.
 class SimSource final : public FrameSource {
  public:
-  SimSource(const camera::Rig& rig, const std::string& scene_path, std::uint64_t seed)
+  SimSource(const camera::Rig& rig, const std::string& scene_path, std::uint64_t seed,
+            std::int64_t prerender)
       : sim_(rig,
              runtime::load_scene(scene_path.empty() ? runtime::shipped_file("scenes/paper.yaml")
                                                     : std::filesystem::path(scene_path)),
-             seed) {}
-  std::string name() const override { return "sim"; }
+             seed) {
+    if (prerender < 0) {
+      throw std::runtime_error("sim source: --prerender must be 0 (render live) or a count, got " +
+                               std::to_string(prerender));
+    }
+    cache_.resize(static_cast<std::size_t>(prerender));
+    for (std::size_t i = 0; i < cache_.size(); ++i) {
+      cache_[i] = sim_.allocate();
+      sim_.render(static_cast<std::int64_t>(i), cache_[i]);
+    }
+  }
+  std::string name() const override {
+    return cache_.empty() ? "sim" : "sim (" + std::to_string(cache_.size()) + " prerendered)";
+  }
   cv::Size visible_size() const override {
     return sim_.camera(sim::Slot::visible_left).model->image_size();
   }
@@ -28,12 +50,175 @@ class SimSource final : public FrameSource {
     return sim_.camera(sim::Slot::infrared_left).model->image_size();
   }
   bool fill(std::int64_t index, sim::FrameSet& out) override {
-    sim_.render(index, out);
+    if (cache_.empty()) {
+      sim_.render(index, out);
+      return true;
+    }
+    const auto& cached = cache_[static_cast<std::size_t>(index) % cache_.size()];
+    for (std::size_t i = 0; i < out.images.size(); ++i) cached.images[i].copyTo(out.images[i]);
     return true;
   }
 
  private:
   sim::SimulatedRig sim_;
+  std::vector<sim::FrameSet> cache_;
+};
+
+// Playback of a folder written by `thermovis scene render --out DIR`: one subfolder per frame
+// named by its index (000000, 000001, ...), each holding visible_left.png, visible_right.png
+// (8-bit BGR), infrared_left.png, infrared_right.png (16-bit grey, raw counts) and truth.json.
+// Frames play in index order; capture k shows frame k % count (so captures the bridge skips
+// when it falls behind are skipped in the playback too).
+class FilesSource final : public FrameSource {
+ public:
+  FilesSource(const camera::Rig& rig, const std::string& directory, bool loop)
+      : directory_(directory), loop_(loop) {
+    namespace fs = std::filesystem;
+    if (directory.empty())
+      throw std::runtime_error(
+          "files source: --dir is required (a `thermovis scene render` folder)");
+    std::error_code error;
+    if (!fs::is_directory(directory_, error))
+      throw std::runtime_error("files source: " + directory + " is not a folder");
+    std::vector<std::pair<std::int64_t, fs::path>> frames;
+    for (const auto& entry : fs::directory_iterator(directory_)) {
+      const std::string stem = entry.path().filename().string();
+      if (!entry.is_directory() || stem.empty() ||
+          !std::all_of(stem.begin(), stem.end(), [](char c) { return c >= '0' && c <= '9'; }))
+        continue;
+      frames.emplace_back(std::stoll(stem), entry.path());
+    }
+    if (frames.empty()) {
+      throw std::runtime_error("files source: " + directory +
+                               " holds no frames (expected numbered subfolders such as 000000/ "
+                               "with visible_left.png ... infrared_right.png, as `thermovis scene "
+                               "render --out` writes them)");
+    }
+    std::sort(frames.begin(), frames.end());
+    for (auto& frame : frames) frames_.push_back(std::move(frame.second));
+    sizes_[0] = sizes_[1] = rig.camera(rig.visible.left).model->image_size();
+    sizes_[2] = sizes_[3] = rig.camera(rig.infrared.left).model->image_size();
+  }
+  std::string name() const override {
+    return "files (" + std::to_string(frames_.size()) + " frames from " + directory_.string() +
+           (loop_ ? ", looping)" : ")");
+  }
+  cv::Size visible_size() const override { return sizes_[0]; }
+  cv::Size infrared_size() const override { return sizes_[2]; }
+  bool fill(std::int64_t index, sim::FrameSet& out) override {
+    const auto count = static_cast<std::int64_t>(frames_.size());
+    if (!loop_ && index >= count) return false;
+    const auto& frame = frames_[static_cast<std::size_t>(index % count)];
+    for (int i = 0; i < sim::kSlotCount; ++i) {
+      const std::filesystem::path file =
+          frame / (std::string(sim::to_string(static_cast<sim::Slot>(i))) + ".png");
+      load(file, i, out.images[static_cast<std::size_t>(i)]);
+    }
+    return true;
+  }
+
+ private:
+  static std::string type_text(int type) {
+    return std::to_string(CV_ELEM_SIZE1(type) * 8) + "-bit " + std::to_string(CV_MAT_CN(type)) +
+           "-channel";
+  }
+
+  // Decodes `file` into `target` (a view of the outgoing frame, already of the rig's size and
+  // type); std::runtime_error naming the file for anything that does not fit.
+  void load(const std::filesystem::path& file, int slot, cv::Mat& target) const {
+    std::error_code error;
+    if (!std::filesystem::is_regular_file(file, error))
+      throw std::runtime_error("files source: missing " + file.string());
+    const cv::Mat image = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
+    if (image.empty())
+      throw std::runtime_error("files source: cannot decode " + file.string() +
+                               " (corrupt or not an image)");
+    const bool visible = slot < 2;
+    const int expected_type = visible ? CV_8UC3 : CV_16UC1;
+    if (image.type() != expected_type) {
+      throw std::runtime_error("files source: " + file.string() + " is " + type_text(image.type()) +
+                               ", expected " + type_text(expected_type) +
+                               (visible ? " (BGR colour)" : " (raw infrared counts)"));
+    }
+    const cv::Size expected = sizes_[static_cast<std::size_t>(slot)];
+    if (image.size() != expected) {
+      throw std::runtime_error(
+          "files source: " + file.string() + " is " + std::to_string(image.cols) + "x" +
+          std::to_string(image.rows) + ", the rig's " + (visible ? "visible" : "infrared") +
+          " camera is " + std::to_string(expected.width) + "x" + std::to_string(expected.height));
+    }
+    image.copyTo(target);
+  }
+
+  std::filesystem::path directory_;
+  bool loop_;
+  std::vector<std::filesystem::path> frames_;
+  std::array<cv::Size, sim::kSlotCount> sizes_;
+};
+
+// Captures from an FPGA (or thermovis-fpga-emu) through the memory-mapped capture ring
+// (fpga/ring.hpp). The FPGA sets the pace: each fill waits for a capture newer than the last
+// one and takes the newest, so the bridge adds no queueing latency; captures it could not take
+// count as skipped. A ring its writer re-created (new file at the same path) is reopened.
+class FpgaDmaSource final : public FrameSource {
+ public:
+  FpgaDmaSource(const camera::Rig& rig, const std::string& path, std::chrono::milliseconds timeout)
+      : path_(path),
+        timeout_(timeout),
+        expected_(fpga::stereo_rig_geometry(rig.camera(rig.visible.left).model->image_size(),
+                                            rig.camera(rig.infrared.left).model->image_size())) {
+    if (path.empty())
+      throw std::runtime_error("fpga-dma source: --ring is required (the capture ring's path)");
+    reader_ = open();
+  }
+  std::string name() const override { return "fpga-dma (" + path_ + ")"; }
+  cv::Size visible_size() const override { return expected_.images[0].size; }
+  cv::Size infrared_size() const override { return expected_.images[2].size; }
+  bool self_paced() const override { return true; }
+  std::optional<std::int64_t> capture_time_ns() const override { return capture_time_ns_; }
+  std::uint64_t skipped() const override {
+    return skipped_before_ + (reader_ ? reader_->stats().skipped : 0);
+  }
+
+  bool fill(std::int64_t /*index*/, sim::FrameSet& out) override {
+    if (!reader_) {
+      // The ring went away (its writer stopped): wait a timeout, so a bridge without a ring does
+      // not spin, then try to open it again.
+      std::this_thread::sleep_for(timeout_);
+      reader_ = open();
+    }
+    std::uint64_t frame_seq = 0;
+    std::int64_t stamp = 0;
+    if (!reader_->read_into(out.images, frame_seq, stamp, timeout_)) {
+      if (reader_->replaced()) {
+        skipped_before_ += reader_->stats().skipped;
+        reader_.reset();
+        reader_ = open();
+      }
+      throw std::runtime_error("fpga-dma source: no capture in ring " + path_ + " for " +
+                               std::to_string(timeout_.count()) + " ms");
+    }
+    capture_time_ns_ = stamp;
+    return true;
+  }
+
+ private:
+  std::unique_ptr<fpga::RingReader> open() const {
+    try {
+      auto reader = std::make_unique<fpga::RingReader>(path_, fpga::RingReader::Mode::latest);
+      reader->require_images(expected_);
+      return reader;
+    } catch (const fpga::RingError& e) {
+      throw std::runtime_error(std::string("fpga-dma source: ") + e.what());
+    }
+  }
+
+  std::string path_;
+  std::chrono::milliseconds timeout_;
+  fpga::RingGeometry expected_;
+  std::unique_ptr<fpga::RingReader> reader_;
+  std::optional<std::int64_t> capture_time_ns_;
+  std::uint64_t skipped_before_ = 0;
 };
 
 // Four cameras through OpenCV's V4L2 backend: visible ones deliver BGR, infrared ones 16-bit
@@ -101,9 +286,14 @@ class V4l2Source final : public FrameSource {
 }  // namespace
 
 std::unique_ptr<FrameSource> make_source(const SourceOptions& options, const camera::Rig& rig) {
-  if (options.kind == "sim") return std::make_unique<SimSource>(rig, options.scene, options.seed);
+  if (options.kind == "sim")
+    return std::make_unique<SimSource>(rig, options.scene, options.seed, options.prerender);
+  if (options.kind == "files")
+    return std::make_unique<FilesSource>(rig, options.directory, options.loop);
   if (options.kind == "v4l2") return std::make_unique<V4l2Source>(rig, options.devices);
-  throw std::runtime_error("unknown source '" + options.kind + "' (known: sim, v4l2)");
+  if (options.kind == "fpga-dma")
+    return std::make_unique<FpgaDmaSource>(rig, options.ring, options.ring_timeout);
+  throw std::runtime_error("unknown source '" + options.kind + "' (known: " + kSourceKinds + ")");
 }
 
 }  // namespace thermovis::bridge

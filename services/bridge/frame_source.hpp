@@ -2,9 +2,11 @@
 // Where the bridge's raw frames come from. A source fills the four raw images of one capture
 // (visible left/right CV_8UC3, infrared left/right CV_16UC1) into buffers the bridge provides
 // (views of loaned DDS samples, so a frame is written once, in place).
+#include <chrono>
 #include <cstdint>
 #include <memory>
 #include <opencv2/core/types.hpp>
+#include <optional>
 #include <string>
 
 #include "thermovis/camera/rig.hpp"
@@ -22,18 +24,37 @@ class FrameSource {
   // Returns false at the end of the stream. Throws std::runtime_error for a bad input frame
   // (the bridge reports it and goes on with the next).
   virtual bool fill(std::int64_t index, sim::FrameSet& out) = 0;
+
+  // True when fill() itself waits for the next capture (a device that runs at its own rate):
+  // the bridge then does not pace it with --rate.
+  virtual bool self_paced() const { return false; }
+  // Start of exposure of the capture the last successful fill() delivered, ns on the pipeline's
+  // clock (transport/clock.hpp), when the source knows it; else the bridge stamps the capture.
+  virtual std::optional<std::int64_t> capture_time_ns() const { return std::nullopt; }
+  // Captures the source itself lost before the bridge could take them (e.g. a ring overrun).
+  virtual std::uint64_t skipped() const { return 0; }
 };
 
 struct SourceOptions {
-  std::string kind = "sim";  // sim | files | v4l2
+  std::string kind = "sim";  // sim | files | v4l2 | fpga-dma
   std::string scene;         // sim: scene YAML (default deploy/scenes/paper.yaml)
   std::uint64_t seed = 1;    // sim
-  std::string directory;     // files: a folder written by `thermovis scene render`
-  bool loop = true;          // files: start again at the end
-  std::string devices;       // v4l2: four device paths, comma-separated (VL,VR,IL,IR)
+  // sim: render this many captures at start and cycle through them (0 = render every capture
+  // live). Each capture then costs a copy instead of a render, but moving targets repeat every
+  // `prerender` captures, and the captures are held in memory (about 15.6 MB each for the
+  // paper's rig).
+  std::int64_t prerender = 0;
+  std::string directory;  // files: a folder written by `thermovis scene render --out`
+  bool loop = true;       // files: start again at the end
+  std::string devices;    // v4l2: four device paths, comma-separated (VL,VR,IL,IR)
+  std::string ring;       // fpga-dma: the capture ring's path (fpga/ring.hpp)
+  std::chrono::milliseconds ring_timeout{500};  // fpga-dma: a fill waits this long at most
 };
 
-// Throws std::runtime_error naming the missing file / device or bad option.
+inline constexpr const char* kSourceKinds = "sim, files, v4l2, fpga-dma";
+
+// Throws std::runtime_error naming the missing file / device / ring, the empty folder, or the
+// bad option.
 std::unique_ptr<FrameSource> make_source(const SourceOptions& options, const camera::Rig& rig);
 
 }  // namespace thermovis::bridge
