@@ -19,9 +19,12 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr int kSuperSamples = 4;        // per axis, at static edges: coverage to 1/16 of a pixel
 constexpr int kMovingSuperSamples = 3;  // per axis, at moving targets' edges (per frame: cheaper)
 constexpr int kRegionPad = 2;           // px around a moving target's projected box
-// Noise: one plane of normal samples N(0, 1) stored as round(16 z) in int8 (|z| < 8), read
-// at a pseudo-random offset per frame and camera in [0, kNoiseMargin).
-constexpr std::size_t kNoiseMargin = std::size_t{1} << 20;
+// Noise: one plane of normal samples N(0, 1) stored as round(16 z) in int8 (|z| < 8). Each row
+// of each image reads a run of it that starts at its own pseudo-random offset in
+// [0, kNoiseOffsets), drawn from (seed, frame, camera, row): no two images' noise fields are
+// shifted copies of each other (which the matcher would see as a false match at that shift),
+// and the plane is small enough to stay in cache while every image is written.
+constexpr std::size_t kNoiseOffsets = std::size_t{1} << 20;
 constexpr double kNoiseScale = 16.0;
 
 std::uint64_t splitmix64(std::uint64_t& state) {
@@ -59,15 +62,33 @@ std::uint64_t mix_seed(std::uint64_t seed, std::uint64_t a, std::uint64_t b) {
   return splitmix64(state);
 }
 
-// out = clamp(clean + round(z * sigma)), z = noise / 16, sigma = sigma16 / 16 (DN).
+// The noise kernels run over every pixel of every frame: on x86-64 they are also compiled for
+// AVX2 and the best version is chosen when the library loads. Integer arithmetic: every
+// version gives the same bytes.
+#if defined(__x86_64__) && defined(__has_attribute)
+#if __has_attribute(target_clones)
+#define THERMOVIS_SIM_NOISE_KERNEL __attribute__((target_clones("avx2", "default")))
+#endif
+#endif
+#ifndef THERMOVIS_SIM_NOISE_KERNEL
+#define THERMOVIS_SIM_NOISE_KERNEL
+#endif
+
+// out = clamp(clean + round(z * sigma)), z = noise / 16, sigma = sigma16 / 16 (DN). In 16 bits:
+// |noise * sigma16| + 128 <= 127 * 255 + 128 fits.
+THERMOVIS_SIM_NOISE_KERNEL
 void add_noise_u8(const std::uint8_t* clean, const std::uint8_t* sigma16, const std::int8_t* noise,
                   std::uint8_t* out, std::size_t n) {
   for (std::size_t i = 0; i < n; ++i) {
-    const int v = clean[i] + ((noise[i] * sigma16[i] + 128) >> 8);
-    out[i] = static_cast<std::uint8_t>(std::clamp(v, 0, 255));
+    const auto scaled = static_cast<std::int16_t>(
+        static_cast<std::int16_t>(noise[i]) * static_cast<std::int16_t>(sigma16[i]) + 128);
+    const auto v = static_cast<std::int16_t>(clean[i] + (scaled >> 8));
+    out[i] = static_cast<std::uint8_t>(v < 0 ? 0 : (v > 255 ? 255 : v));
   }
 }
 
+// The same for infrared counts, whose sigma (under 128 counts) is one number per camera.
+THERMOVIS_SIM_NOISE_KERNEL
 void add_noise_u16(const std::uint16_t* clean, int sigma16, const std::int8_t* noise,
                    std::uint16_t* out, std::size_t n, int max_count) {
   for (std::size_t i = 0; i < n; ++i) {
@@ -205,7 +226,8 @@ struct SimulatedRig::Impl {
         return Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN());
       return c.R_world_cam * ray.normalized();
     }
-    return Eigen::Vector3d(r[0], r[1], r[2]).normalized();
+    const Eigen::Vector3d v(r[0], r[1], r[2]);
+    return v * (1.0 / v.norm());
   }
 
   // Anti-aliasing of a moving target's edge pixel: kMovingSuperSamples^2 rays against the moving
@@ -388,20 +410,25 @@ struct SimulatedRig::Impl {
     }
   }
 
-  std::size_t noise_offset(std::int64_t frame, Slot slot) const {
-    return mix_seed(seed, static_cast<std::uint64_t>(frame), 1 + static_cast<std::uint64_t>(slot)) %
-           kNoiseMargin;
+  // The key of one image's noise: frame and camera.
+  std::uint64_t noise_key(std::int64_t frame, Slot slot) const {
+    return mix_seed(seed, static_cast<std::uint64_t>(frame), 1 + static_cast<std::uint64_t>(slot));
+  }
+
+  // Where row `row` of the image with noise key `key` starts reading the noise plane.
+  static std::size_t noise_row_offset(std::uint64_t key, int row) {
+    std::uint64_t state = key ^ (static_cast<std::uint64_t>(row) * 0xD6E8FEB86659FD93ULL);
+    return static_cast<std::size_t>(splitmix64(state) % kNoiseOffsets);
   }
 
   // Noise over rows of `clean` (a rect of the image, or the whole image) into `out` (the image).
   void add_noise(const CameraCache& c, const cv::Mat& clean, const cv::Mat* sigma, cv::Rect rect,
-                 std::size_t offset, cv::Mat& out) const {
+                 std::uint64_t key, cv::Mat& out) const {
     const std::size_t width_elems = static_cast<std::size_t>(rect.width) * c.channels;
     std::vector<std::uint8_t> sigma_row;
     for (int y = 0; y < rect.height; ++y) {
-      const std::size_t flat =
-          (static_cast<std::size_t>(rect.y + y) * c.size.width + rect.x) * c.channels;
-      const std::int8_t* noise = noise_plane.data() + offset + flat;
+      const std::int8_t* noise = noise_plane.data() + noise_row_offset(key, rect.y + y) +
+                                 static_cast<std::size_t>(rect.x) * c.channels;
       if (c.visible) {
         const std::uint8_t* in = clean.ptr<std::uint8_t>(y);
         std::uint8_t* dst = out.ptr<std::uint8_t>(rect.y + y) + rect.x * 3;
@@ -504,7 +531,7 @@ struct SimulatedRig::Impl {
 
   // Re-renders `out_rect` of camera c with the moving targets and writes it (with noise) to out.
   void render_region(const CameraCache& c, cv::Rect out_rect,
-                     const std::vector<PlacedTarget>& moving, std::size_t offset,
+                     const std::vector<PlacedTarget>& moving, std::uint64_t noise_key,
                      cv::Mat& out) const {
     const int rb = blur_radius(c);
     const cv::Rect image(cv::Point(0, 0), c.size);
@@ -558,7 +585,7 @@ struct SimulatedRig::Impl {
     const cv::Rect inner = out_rect - rr.tl();
     cv::Mat clean(out_rect.size(), c.visible ? CV_8UC3 : CV_16UC1);
     finish(c, finished(inner), out_rect, clean, false);
-    add_noise(c, clean, nullptr, out_rect, offset, out);
+    add_noise(c, clean, nullptr, out_rect, noise_key, out);
   }
 
   // One region per moving target (empty where it is out of the image).
@@ -599,13 +626,13 @@ SimulatedRig::SimulatedRig(camera::Rig rig, Scene scene, std::uint64_t seed,
   }
   m.ir_sigma16 = static_cast<int>(
       std::lround(kNoiseScale * m.scene.infrared.netd_k * m.scene.infrared.counts_per_k));
-  // The noise plane: long enough for the largest image at any offset.
-  std::size_t largest = 0;
+  // The noise plane: long enough for the longest row at any offset.
+  std::size_t longest = 0;
   for (int i = 0; i < kSlotCount; ++i) {
     const cv::Size size = m.rig.camera(names[static_cast<std::size_t>(i)]).model->image_size();
-    largest = std::max(largest, static_cast<std::size_t>(size.area()) * (i < 2 ? 3 : 1));
+    longest = std::max(longest, static_cast<std::size_t>(size.width) * (i < 2 ? 3 : 1));
   }
-  m.noise_plane.resize(largest + kNoiseMargin);
+  m.noise_plane.resize(kNoiseOffsets + longest);
   NormalStream normal(mix_seed(seed, 0xA0, 0));
   for (std::int8_t& v : m.noise_plane) {
     v = static_cast<std::int8_t>(std::clamp(std::lround(kNoiseScale * normal.next()), -127L, 127L));
@@ -651,9 +678,9 @@ void SimulatedRig::render(std::int64_t frame_index, FrameSet& out) const {
   for (int i = 0; i < kSlotCount; ++i) {
     const CameraCache& c = m.cams[static_cast<std::size_t>(i)];
     cv::Mat& img = out.images[static_cast<std::size_t>(i)];
-    const std::size_t offset = m.noise_offset(frame_index, static_cast<Slot>(i));
+    const std::uint64_t key = m.noise_key(frame_index, static_cast<Slot>(i));
     const cv::Rect whole(cv::Point(0, 0), c.size);
-    m.add_noise(c, c.static_clean, c.visible ? &c.static_sigma : nullptr, whole, offset, img);
+    m.add_noise(c, c.static_clean, c.visible ? &c.static_sigma : nullptr, whole, key, img);
     const std::vector<cv::Rect> rects = m.regions(c, moving);
     std::vector<PlacedTarget> local;
     for (const cv::Rect& r : rects) {
@@ -665,7 +692,7 @@ void SimulatedRig::render(std::int64_t frame_index, FrameSet& out) const {
       for (std::size_t k = 0; k < moving.size(); ++k) {
         if ((rects[k] & reach).area() > 0) local.push_back(moving[k]);
       }
-      m.render_region(c, r, local, offset, img);
+      m.render_region(c, r, local, key, img);
     }
   }
 }

@@ -8,8 +8,9 @@
 //
 // Cost: construction renders the static scene (ground, walls, sky and targets that do not
 // move) once per camera, anti-aliased at edges, and draws one normal noise plane for the seed.
-// render() then copies the static image through the noise step (noise plane at a per-frame
-// pseudo-random offset) and re-renders only the pixels the moving targets' boxes cover.
+// render() then copies the static image through the noise step (each row of each image reads
+// the noise plane from its own pseudo-random offset) and re-renders only the pixels the moving
+// targets' boxes cover.
 //
 // Determinism: the images of frame k depend only on (rig, scene, seed, options, k): same inputs,
 // same bytes, in any order of frames. The scene's textures do not depend on the seed; the noise
