@@ -92,6 +92,9 @@ void BridgeNode::run() {
         std::this_thread::sleep_for(std::chrono::milliseconds(1));
       continue;
     }
+    // The first capture also touches the writers' fresh sample pools (page faults over the
+    // shared segment, tens of ms for 6 MB frames): time starts after it, not before.
+    if (index == 0) next = Clock::now();
     next += period;
     // Fell behind by more than a period (a slow source or a busy machine): skip the captures
     // that are already late rather than bursting them out.

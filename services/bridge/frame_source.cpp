@@ -68,10 +68,13 @@ class SimSource final : public FrameSource {
 // named by its index (000000, 000001, ...), each holding visible_left.png, visible_right.png
 // (8-bit BGR), infrared_left.png, infrared_right.png (16-bit grey, raw counts) and truth.json.
 // Frames play in index order; capture k shows frame k % count (so captures the bridge skips
-// when it falls behind are skipped in the playback too).
+// when it falls behind are skipped in the playback too, and a capture's seq maps to its frame).
+// Decoding the PNGs of one capture takes about 200 ms of CPU at the paper's resolution, so
+// playback decoding live runs at a few captures per second; with `preload` every frame is
+// decoded at start and a capture costs a copy.
 class FilesSource final : public FrameSource {
  public:
-  FilesSource(const camera::Rig& rig, const std::string& directory, bool loop)
+  FilesSource(const camera::Rig& rig, const std::string& directory, bool loop, bool preload)
       : directory_(directory), loop_(loop) {
     namespace fs = std::filesystem;
     if (directory.empty())
@@ -98,26 +101,52 @@ class FilesSource final : public FrameSource {
     for (auto& frame : frames) frames_.push_back(std::move(frame.second));
     sizes_[0] = sizes_[1] = rig.camera(rig.visible.left).model->image_size();
     sizes_[2] = sizes_[3] = rig.camera(rig.infrared.left).model->image_size();
+    if (preload) {
+      // Decoded once; a bad frame keeps its error, reported each time the frame comes round.
+      decoded_.resize(frames_.size());
+      errors_.resize(frames_.size());
+      for (std::size_t k = 0; k < frames_.size(); ++k) {
+        for (int i = 0; i < sim::kSlotCount; ++i)
+          decoded_[k].images[static_cast<std::size_t>(i)].create(
+              sizes_[static_cast<std::size_t>(i)], i < 2 ? CV_8UC3 : CV_16UC1);
+        try {
+          decode(frames_[k], decoded_[k]);
+        } catch (const std::runtime_error& e) {
+          errors_[k] = e.what();
+          decoded_[k] = {};
+        }
+      }
+    }
   }
   std::string name() const override {
     return "files (" + std::to_string(frames_.size()) + " frames from " + directory_.string() +
-           (loop_ ? ", looping)" : ")");
+           (decoded_.empty() ? "" : ", preloaded") + (loop_ ? ", looping)" : ")");
   }
   cv::Size visible_size() const override { return sizes_[0]; }
   cv::Size infrared_size() const override { return sizes_[2]; }
   bool fill(std::int64_t index, sim::FrameSet& out) override {
     const auto count = static_cast<std::int64_t>(frames_.size());
     if (!loop_ && index >= count) return false;
-    const auto& frame = frames_[static_cast<std::size_t>(index % count)];
-    for (int i = 0; i < sim::kSlotCount; ++i) {
-      const std::filesystem::path file =
-          frame / (std::string(sim::to_string(static_cast<sim::Slot>(i))) + ".png");
-      load(file, i, out.images[static_cast<std::size_t>(i)]);
+    const auto k = static_cast<std::size_t>(index % count);
+    if (decoded_.empty()) {
+      decode(frames_[k], out);
+    } else {
+      if (!errors_[k].empty()) throw std::runtime_error(errors_[k]);
+      for (std::size_t i = 0; i < out.images.size(); ++i)
+        decoded_[k].images[i].copyTo(out.images[i]);
     }
     return true;
   }
 
  private:
+  void decode(const std::filesystem::path& frame, sim::FrameSet& out) const {
+    for (int i = 0; i < sim::kSlotCount; ++i) {
+      const std::filesystem::path file =
+          frame / (std::string(sim::to_string(static_cast<sim::Slot>(i))) + ".png");
+      load(file, i, out.images[static_cast<std::size_t>(i)]);
+    }
+  }
+
   static std::string type_text(int type) {
     return std::to_string(CV_ELEM_SIZE1(type) * 8) + "-bit " + std::to_string(CV_MAT_CN(type)) +
            "-channel";
@@ -154,6 +183,8 @@ class FilesSource final : public FrameSource {
   bool loop_;
   std::vector<std::filesystem::path> frames_;
   std::array<cv::Size, sim::kSlotCount> sizes_;
+  std::vector<sim::FrameSet> decoded_;  // --preload: every frame, decoded at start
+  std::vector<std::string> errors_;     // --preload: why a frame could not be decoded
 };
 
 // Captures from an FPGA (or thermovis-fpga-emu) through the memory-mapped capture ring
@@ -289,7 +320,7 @@ std::unique_ptr<FrameSource> make_source(const SourceOptions& options, const cam
   if (options.kind == "sim")
     return std::make_unique<SimSource>(rig, options.scene, options.seed, options.prerender);
   if (options.kind == "files")
-    return std::make_unique<FilesSource>(rig, options.directory, options.loop);
+    return std::make_unique<FilesSource>(rig, options.directory, options.loop, options.preload);
   if (options.kind == "v4l2") return std::make_unique<V4l2Source>(rig, options.devices);
   if (options.kind == "fpga-dma")
     return std::make_unique<FpgaDmaSource>(rig, options.ring, options.ring_timeout);

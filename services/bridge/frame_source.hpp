@@ -46,6 +46,7 @@ struct SourceOptions {
   std::int64_t prerender = 0;
   std::string directory;  // files: a folder written by `thermovis scene render --out`
   bool loop = true;       // files: start again at the end
+  bool preload = false;   // files: decode every frame at start (memory: ~15.6 MB per frame)
   std::string devices;    // v4l2: four device paths, comma-separated (VL,VR,IL,IR)
   std::string ring;       // fpga-dma: the capture ring's path (fpga/ring.hpp)
   std::chrono::milliseconds ring_timeout{500};  // fpga-dma: a fill waits this long at most

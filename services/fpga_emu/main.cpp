@@ -61,6 +61,7 @@ int main(int argc, char** argv) {
   app.add_flag(
       "--no-loop", [&source](std::int64_t) { source.loop = false; },
       "files: stop at the last frame");
+  app.add_flag("--preload", source.preload, "files: decode every frame at start");
   app.add_flag("--keep-ring", keep_ring, "leave the ring file in place at exit");
   CLI11_PARSE(app, argc, argv);
 

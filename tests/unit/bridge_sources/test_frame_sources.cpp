@@ -123,11 +123,13 @@ class Sources : public ::testing::Test {
     return root;
   }
 
-  std::unique_ptr<FrameSource> files_source(const fs::path& root, bool loop = true) const {
+  std::unique_ptr<FrameSource> files_source(const fs::path& root, bool loop = true,
+                                            bool preload = false) const {
     SourceOptions options;
     options.kind = "files";
     options.directory = root.string();
     options.loop = loop;
+    options.preload = preload;
     return make_source(options, rig_);
   }
 
@@ -137,14 +139,17 @@ class Sources : public ::testing::Test {
 
 TEST_F(Sources, FilesSourcePlaysTheFolderInOrderAndLoops) {
   const auto root = write_folder(3);
-  auto source = files_source(root);
-  EXPECT_EQ(source->visible_size(), kVisible);
-  EXPECT_EQ(source->infrared_size(), kInfrared);
-  EXPECT_FALSE(source->self_paced());
-  FrameSet frames = allocate(*source);
-  for (int index = 0; index < 7; ++index) {
-    ASSERT_TRUE(source->fill(index, frames));
-    expect_equal(frames, test_frame(index % 3));
+  for (const bool preload : {false, true}) {
+    SCOPED_TRACE(preload ? "preloaded" : "decoded live");
+    auto source = files_source(root, true, preload);
+    EXPECT_EQ(source->visible_size(), kVisible);
+    EXPECT_EQ(source->infrared_size(), kInfrared);
+    EXPECT_FALSE(source->self_paced());
+    FrameSet frames = allocate(*source);
+    for (int index = 0; index < 7; ++index) {
+      ASSERT_TRUE(source->fill(index, frames));
+      expect_equal(frames, test_frame(index % 3));
+    }
   }
 }
 
@@ -167,23 +172,28 @@ TEST_F(Sources, FilesSourceNamesTheBadFileAndGoesOn) {
   const fs::path eight_bit = root / "000004" / "infrared_right.png";
   cv::imwrite(eight_bit.string(), cv::Mat(kInfrared, CV_8UC1, cv::Scalar(100)));
 
-  auto source = files_source(root);
-  FrameSet frames = allocate(*source);
-  std::string message = error_of([&] { source->fill(1, frames); });
-  EXPECT_NE(message.find("missing " + missing.string()), std::string::npos) << message;
-  message = error_of([&] { source->fill(2, frames); });
-  EXPECT_NE(message.find("cannot decode " + corrupt.string()), std::string::npos) << message;
-  message = error_of([&] { source->fill(3, frames); });
-  EXPECT_NE(message.find(small.string() + " is 12x10, the rig's infrared camera is 64x48"),
-            std::string::npos)
-      << message;
-  message = error_of([&] { source->fill(4, frames); });
-  EXPECT_NE(message.find(eight_bit.string() + " is 8-bit 1-channel, expected 16-bit 1-channel"),
-            std::string::npos)
-      << message;
-  // The next capture after the bad ones is fine, and the outgoing buffers kept their shape.
-  ASSERT_TRUE(source->fill(5, frames));
-  expect_equal(frames, test_frame(0));
+  for (const bool preload : {false, true}) {
+    SCOPED_TRACE(preload ? "preloaded" : "decoded live");
+    auto source = files_source(root, true, preload);
+    FrameSet frames = allocate(*source);
+    std::string message = error_of([&] { source->fill(1, frames); });
+    EXPECT_NE(message.find("missing " + missing.string()), std::string::npos) << message;
+    message = error_of([&] { source->fill(2, frames); });
+    EXPECT_NE(message.find("cannot decode " + corrupt.string()), std::string::npos) << message;
+    message = error_of([&] { source->fill(3, frames); });
+    EXPECT_NE(message.find(small.string() + " is 12x10, the rig's infrared camera is 64x48"),
+              std::string::npos)
+        << message;
+    message = error_of([&] { source->fill(4, frames); });
+    EXPECT_NE(message.find(eight_bit.string() + " is 8-bit 1-channel, expected 16-bit 1-channel"),
+              std::string::npos)
+        << message;
+    // The next capture after the bad ones is fine, and the outgoing buffers kept their shape.
+    ASSERT_TRUE(source->fill(5, frames));
+    expect_equal(frames, test_frame(0));
+    message = error_of([&] { source->fill(7, frames); });  // the bad frames come round again
+    EXPECT_NE(message.find("cannot decode " + corrupt.string()), std::string::npos) << message;
+  }
 }
 
 TEST_F(Sources, FilesSourceRejectsAFolderWithoutFrames) {
