@@ -215,11 +215,12 @@ struct SimulatedRig::Impl {
     const int x0 = std::clamp(static_cast<int>(std::floor(px)), 0, c.size.width - 2);
     const int y0 = std::clamp(static_cast<int>(std::floor(py)), 0, c.size.height - 2);
     const float fx = static_cast<float>(px - x0), fy = static_cast<float>(py - y0);
-    const cv::Vec3f& a = c.rays.at<cv::Vec3f>(y0, x0);
-    const cv::Vec3f& b = c.rays.at<cv::Vec3f>(y0, x0 + 1);
-    const cv::Vec3f& d = c.rays.at<cv::Vec3f>(y0 + 1, x0);
-    const cv::Vec3f& e = c.rays.at<cv::Vec3f>(y0 + 1, x0 + 1);
-    const cv::Vec3f r = (a * (1.0f - fx) + b * fx) * (1.0f - fy) + (d * (1.0f - fx) + e * fx) * fy;
+    const float gx = 1.0f - fx, gy = 1.0f - fy;
+    const float* a = c.rays.ptr<float>(y0) + 3 * x0;      // then b = a + 3
+    const float* d = c.rays.ptr<float>(y0 + 1) + 3 * x0;  // then e = d + 3
+    float r[3];
+    for (int k = 0; k < 3; ++k)
+      r[k] = (a[k] * gx + a[k + 3] * fx) * gy + (d[k] * gx + d[k + 3] * fx) * fy;
     if (std::isnan(r[0])) {
       Eigen::Vector3d ray;
       if (!c.camera->model->unproject(Eigen::Vector2d(px, py), ray))
@@ -234,7 +235,7 @@ struct SimulatedRig::Impl {
   // targets; the rays that miss them see the static scene, whose pixel value (already
   // anti-aliased) stands for it. Each target part is shaded once per pixel.
   Linear supersample_moving(const CameraCache& c, int x, int y,
-                            const std::vector<detail::PreparedTarget>& moving,
+                            const std::vector<const detail::PreparedTarget*>& moving,
                             const Linear& static_value) const {
     const double depth = c.static_depth.at<float>(y, x);
     Linear sum(0.0f, 0.0f, 0.0f);
@@ -250,7 +251,7 @@ struct SimulatedRig::Impl {
         ++count;
         Hit hit;
         hit.t = depth;
-        detail::World::trace_targets(moving, d, hit);
+        for (const detail::PreparedTarget* pt : moving) detail::World::trace_target(*pt, d, hit);
         if (hit.texture < 0) {
           sum += static_value;
           continue;
@@ -529,9 +530,22 @@ struct SimulatedRig::Impl {
     return static_cast<int>(std::ceil(4.0 * scene.visible.blur_sigma_px));
   }
 
-  // Re-renders `out_rect` of camera c with the moving targets and writes it (with noise) to out.
+  // The prepared targets whose region (`regions`, image coordinates) holds pixel (x, y): the
+  // only ones its rays can meet, since a region holds its target's projection with a margin.
+  static void covering(const std::vector<detail::PreparedTarget>& prepared,
+                       const std::vector<cv::Rect>& regions, int x, int y,
+                       std::vector<const detail::PreparedTarget*>& out) {
+    out.clear();
+    for (std::size_t k = 0; k < prepared.size(); ++k) {
+      if (regions[k].contains(cv::Point(x, y))) out.push_back(&prepared[k]);
+    }
+  }
+
+  // Re-renders `out_rect` of camera c with the moving targets (whose regions are
+  // `moving_regions`) and writes it (with noise) to out.
   void render_region(const CameraCache& c, cv::Rect out_rect,
-                     const std::vector<PlacedTarget>& moving, std::uint64_t noise_key,
+                     const std::vector<PlacedTarget>& moving,
+                     const std::vector<cv::Rect>& moving_regions, std::uint64_t noise_key,
                      cv::Mat& out) const {
     const int rb = blur_radius(c);
     const cv::Rect image(cv::Point(0, 0), c.size);
@@ -539,22 +553,27 @@ struct SimulatedRig::Impl {
                                  out_rect.height + 2 * rb) &
                         image;
     const std::vector<detail::PreparedTarget> prepared = detail::World::prepare(moving, c.centre);
-    cv::Mat linear(rr.size(), c.static_linear.type());
-    cv::Mat ids(rr.size(), CV_16UC1);
+    std::vector<const detail::PreparedTarget*> near;
+    near.reserve(prepared.size());
+    cv::Mat linear, ids;
+    c.static_linear(rr).copyTo(linear);
+    c.static_id(rr).copyTo(ids);
     for (int y = 0; y < rr.height; ++y) {
+      const int gy = rr.y + y;
+      const auto* static_id = c.static_id.ptr<std::uint16_t>(gy) + rr.x;
+      const float* depth = c.static_depth.ptr<float>(gy) + rr.x;
+      const float* ray = c.rays.ptr<float>(gy) + 3 * rr.x;
+      auto* id = ids.ptr<std::uint16_t>(y);
       for (int x = 0; x < rr.width; ++x) {
-        const int gx = rr.x + x, gy = rr.y + y;
-        const std::uint16_t static_id = c.static_id.at<std::uint16_t>(gy, gx);
-        ids.at<std::uint16_t>(y, x) = static_id;
-        set_linear(linear, y, x, get_linear(c.static_linear, gy, gx));
-        if (static_id == detail::kNoRayId) continue;
-        const cv::Vec3f& r = c.rays.at<cv::Vec3f>(gy, gx);
-        const Eigen::Vector3d d(r[0], r[1], r[2]);
+        if (static_id[x] == detail::kNoRayId) continue;
+        covering(prepared, moving_regions, rr.x + x, gy, near);
+        if (near.empty()) continue;
+        const Eigen::Vector3d d(ray[3 * x], ray[3 * x + 1], ray[3 * x + 2]);
         Hit hit;
-        hit.t = c.static_depth.at<float>(gy, gx);
-        detail::World::trace_targets(prepared, d, hit);
+        hit.t = depth[x];
+        for (const detail::PreparedTarget* pt : near) detail::World::trace_target(*pt, d, hit);
         if (hit.texture < 0) continue;  // no moving target in front of the static scene
-        ids.at<std::uint16_t>(y, x) = hit.id;
+        id[x] = hit.id;
         set_linear(linear, y, x, radiance(c, hit, d));
       }
     }
@@ -571,8 +590,9 @@ struct SimulatedRig::Impl {
             involves_moving = involves_moving || is_moving_id(ids.at<std::uint16_t>(ny, nx));
         }
         if (involves_moving) {
+          covering(prepared, moving_regions, rr.x + x, rr.y + y, near);
           set_linear(linear, y, x,
-                     supersample_moving(c, rr.x + x, rr.y + y, prepared,
+                     supersample_moving(c, rr.x + x, rr.y + y, near,
                                         get_linear(c.static_linear, rr.y + y, rr.x + x)));
         }
       }
@@ -683,16 +703,20 @@ void SimulatedRig::render(std::int64_t frame_index, FrameSet& out) const {
     m.add_noise(c, c.static_clean, c.visible ? &c.static_sigma : nullptr, whole, key, img);
     const std::vector<cv::Rect> rects = m.regions(c, moving);
     std::vector<PlacedTarget> local;
+    std::vector<cv::Rect> local_rects;
     for (const cv::Rect& r : rects) {
       if (r.area() == 0) continue;
       // Only the moving targets whose own region reaches this one can cover its pixels.
       const int rb = m.blur_radius(c);
       const cv::Rect reach(r.x - rb, r.y - rb, r.width + 2 * rb, r.height + 2 * rb);
       local.clear();
+      local_rects.clear();
       for (std::size_t k = 0; k < moving.size(); ++k) {
-        if ((rects[k] & reach).area() > 0) local.push_back(moving[k]);
+        if ((rects[k] & reach).area() == 0) continue;
+        local.push_back(moving[k]);
+        local_rects.push_back(rects[k]);
       }
-      m.render_region(c, r, local, key, img);
+      m.render_region(c, r, local, local_rects, key, img);
     }
   }
 }

@@ -134,9 +134,10 @@ void intersect(const Primitive& prim, const Eigen::Vector3d& o, const Eigen::Vec
     }
     case Primitive::Kind::cylinder: {
       const double rx = prim.half.x(), rz = prim.half.z(), hy = prim.half.y();
-      const double a = d.x() * d.x() / (rx * rx) + d.z() * d.z() / (rz * rz);
-      const double b = 2.0 * (rel.x() * d.x() / (rx * rx) + rel.z() * d.z() / (rz * rz));
-      const double c = rel.x() * rel.x() / (rx * rx) + rel.z() * rel.z() / (rz * rz) - 1.0;
+      const double kx = 1.0 / (rx * rx), kz = 1.0 / (rz * rz);
+      const double a = d.x() * d.x() * kx + d.z() * d.z() * kz;
+      const double b = 2.0 * (rel.x() * d.x() * kx + rel.z() * d.z() * kz);
+      const double c = rel.x() * rel.x() * kx + rel.z() * rel.z() * kz - 1.0;
       if (a > kEps) {
         const double disc = b * b - 4.0 * a * c;
         if (disc >= 0.0) {
@@ -146,7 +147,7 @@ void intersect(const Primitive& prim, const Eigen::Vector3d& o, const Eigen::Vec
             best.t = t;
             best.point = o + t * d;
             const Eigen::Vector3d r = best.point - prim.centre;
-            best.normal = Eigen::Vector3d(r.x() / (rx * rx), 0.0, r.z() / (rz * rz)).normalized();
+            best.normal = Eigen::Vector3d(r.x() * kx, 0.0, r.z() * kz).normalized();
             best.u = around_axis(best.point, prim.centre, 0.5 * (rx + rz));
             best.v = -best.point.y();
             best.texture = prim.texture;
@@ -154,11 +155,12 @@ void intersect(const Primitive& prim, const Eigen::Vector3d& o, const Eigen::Vec
         }
       }
       if (std::abs(d.y()) > kEps) {  // the caps
+        const double inv_dy = 1.0 / d.y();
         for (double cap : {-hy, hy}) {
-          const double t = (cap - rel.y()) / d.y();
+          const double t = (cap - rel.y()) * inv_dy;
           if (t <= kEps || t >= best.t) continue;
           const double x = rel.x() + t * d.x(), z = rel.z() + t * d.z();
-          if (x * x / (rx * rx) + z * z / (rz * rz) > 1.0) continue;
+          if (x * x * kx + z * z * kz > 1.0) continue;
           best.t = t;
           best.point = o + t * d;
           best.normal = Eigen::Vector3d(0.0, cap > 0.0 ? 1.0 : -1.0, 0.0);
@@ -441,7 +443,8 @@ void trace_local(const CompiledTarget& t, const Eigen::Matrix3d& R_world_local,
       if (ol[i] < t.bound_lo[i] || ol[i] > t.bound_hi[i]) return;
       continue;
     }
-    double a = (t.bound_lo[i] - ol[i]) / dl[i], b = (t.bound_hi[i] - ol[i]) / dl[i];
+    const double inv = 1.0 / dl[i];
+    double a = (t.bound_lo[i] - ol[i]) * inv, b = (t.bound_hi[i] - ol[i]) * inv;
     if (a > b) std::swap(a, b);
     t0 = std::max(t0, a);
     t1 = std::min(t1, b);
@@ -483,8 +486,11 @@ std::vector<PreparedTarget> World::prepare(const std::vector<PlacedTarget>& plac
 
 void World::trace_targets(const std::vector<PreparedTarget>& prepared, const Eigen::Vector3d& d,
                           Hit& hit) {
-  for (const PreparedTarget& pt : prepared)
-    trace_local(*pt.target, pt.target->R_world_local, pt.origin_local, pt.R_local_world * d, hit);
+  for (const PreparedTarget& pt : prepared) trace_target(pt, d, hit);
+}
+
+void World::trace_target(const PreparedTarget& pt, const Eigen::Vector3d& d, Hit& hit) {
+  trace_local(*pt.target, pt.target->R_world_local, pt.origin_local, pt.R_local_world * d, hit);
 }
 
 SurfaceSample World::shade(const Hit& hit, const Eigen::Vector3d& d, double pixel_angle_rad) const {

@@ -99,6 +99,7 @@ class World {
                                              const Eigen::Vector3d& o);
   static void trace_targets(const std::vector<PreparedTarget>& prepared, const Eigen::Vector3d& d,
                             Hit& hit);
+  static void trace_target(const PreparedTarget& prepared, const Eigen::Vector3d& d, Hit& hit);
 
   // Surface look at a hit; pixel_angle_rad sets the texture footprint.
   SurfaceSample shade(const Hit& hit, const Eigen::Vector3d& d, double pixel_angle_rad) const;
