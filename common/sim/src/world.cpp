@@ -172,12 +172,15 @@ void intersect(const Primitive& prim, const Eigen::Vector3d& o, const Eigen::Vec
       return;
     }
     case Primitive::Kind::sphere: {
+      // d need not be exactly unit (interpolated rays): the full quadratic, so that the
+      // silhouette's edge does not move with the ray's length.
       const double r = prim.half.x();
+      const double a = d.squaredNorm();
       const double b = rel.dot(d);
       const double c = rel.squaredNorm() - r * r;
-      const double disc = b * b - c;
+      const double disc = b * b - a * c;
       if (disc < 0.0) return;
-      const double t = -b - std::sqrt(disc);
+      const double t = (-b - std::sqrt(disc)) / a;
       if (t <= kEps || t >= best.t) return;
       best.t = t;
       best.point = o + t * d;
