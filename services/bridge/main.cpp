@@ -55,8 +55,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   config.deadline = std::chrono::nanoseconds(static_cast<std::int64_t>(deadline_ms * 1e6));
 
-  node::install_stop_handlers();
-  try {
+  return node::run_service(common, [&] {
     const auto rig =
         runtime::load_rig(common.rig.empty() ? runtime::default_rig_path() : common.rig);
     auto participant = node::make_participant(common);
@@ -67,9 +66,5 @@ int main(int argc, char** argv) {
     std::cerr << "thermovis-bridge: published " << stats.published << ", dropped " << stats.dropped
               << ", bad " << stats.bad << ", skipped by the source " << stats.source_skipped
               << "\n";
-  } catch (const std::exception& e) {
-    std::cerr << "thermovis-bridge: error: " << e.what() << "\n";
-    return 1;
-  }
-  return 0;
+  });
 }

@@ -24,8 +24,7 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   CLI11_PARSE(app, argc, argv);
 
-  node::install_stop_handlers();
-  try {
+  return node::run_service(common, [&] {
     const auto parsed = fuse::method_from_name(method);
     if (!parsed) throw std::invalid_argument("unknown fusion method '" + method + "'");
     config.fusion.method = *parsed;
@@ -40,10 +39,6 @@ int main(int argc, char** argv) {
     node.run();
     const auto stats = node.stats();
     std::cerr << "thermovis-rectify-fuse: processed " << stats.processed << ", dropped "
-              << stats.dropped << ", bad " << stats.bad << "\n";
-  } catch (const std::exception& e) {
-    std::cerr << "thermovis-rectify-fuse: error: " << e.what() << "\n";
-    return 1;
-  }
-  return 0;
+              << stats.dropped << ", bad " << stats.bad << ", repeated " << stats.repeated << "\n";
+  });
 }

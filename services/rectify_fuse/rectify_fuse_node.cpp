@@ -82,6 +82,11 @@ void RectifyFuseNode::run() {
     // Only the newest capture is worth processing; older ones are dropped (never queued).
     stats_.dropped += visible.size() - 1;
     const VisibleStereoFrame& vis = visible[visible.size() - 1];
+    if (stats_.processed > 0 && vis.seq() <= last_seq_) {
+      ++stats_.repeated;  // a capture seen before (or older): never processed twice
+      continue;
+    }
+    last_seq_ = vis.seq();
     // Its infrared partner (same seq) is published with it: look for it briefly.
     bool done = false;
     for (int attempt = 0; attempt < 10 && !done && !node::stop_requested(); ++attempt) {
@@ -112,26 +117,35 @@ void RectifyFuseNode::process(const VisibleStereoFrame& visible,
   auto out_visible = rectified_visible_out_.loan();
   auto out_infrared = rectified_infrared_out_.loan();
   auto out_fused = fused_out_.loan();
+  // The rectified pairs first: detection and matching work on them, so they are published
+  // before the fusion (which only the display and fused-band matching need) is computed.
+  std::array<cv::Mat, 2> rect_visible, rect_infrared;
   for (const Eye eye : {Eye::left, Eye::right}) {
     const int i = eye == Eye::left ? 0 : 1;
     // view() checks the headers; the remappers check the sizes against the rig's cameras.
-    const cv::Mat raw_visible = node::view(visible, eye);
-    const cv::Mat raw_infrared = node::view(infrared, eye);
-    cv::Mat rect_visible = node::prepare(*out_visible, eye, grid_size_, CV_8UC3);
-    visible_maps_[i]->remap(raw_visible, rect_visible);
-    infrared_maps_[i]->remap(raw_infrared, infrared_scratch_);
-    cv::Mat rect_infrared = node::prepare(*out_infrared, eye, grid_size_, CV_8UC1);
-    agc_[i].process(infrared_scratch_).copyTo(rect_infrared);
-    const cv::Mat visible_for_fusion =
-        config_.enhance_visible ? enhance::enhance_visible(rect_visible) : rect_visible;
-    cv::Mat fused = node::prepare(*out_fused, eye, grid_size_, CV_8UC3);
-    fuse::fuse(rect_infrared, visible_for_fusion, config_.fusion).copyTo(fused);
+    rect_visible[i] = node::prepare(*out_visible, eye, grid_size_, CV_8UC3);
+    visible_maps_[i]->remap(node::view(visible, eye), rect_visible[i]);
+    // The rectified infrared keeps its raw counts (detection thresholds on temperature, not on
+    // equalised grey levels); the gain-controlled image goes into the fusion.
+    rect_infrared[i] = node::prepare(*out_infrared, eye, grid_size_, CV_16UC1);
+    infrared_maps_[i]->remap(node::view(infrared, eye), rect_infrared[i]);
   }
   copy_header(visible, *out_visible, start_ns);
   copy_header(visible, *out_infrared, start_ns);
-  copy_header(visible, *out_fused, start_ns);
   rectified_visible_out_.publish(std::move(out_visible));
   rectified_infrared_out_.publish(std::move(out_infrared));
+  // Reading the published samples stays safe: this writer reuses a pool slot only at its next
+  // loan, which comes with the next capture.
+  const std::int64_t fusion_start_ns = transport::now_ns();
+  for (const Eye eye : {Eye::left, Eye::right}) {
+    const int i = eye == Eye::left ? 0 : 1;
+    const cv::Mat infrared_agc = agc_[i].process(rect_infrared[i]);
+    const cv::Mat visible_for_fusion =
+        config_.enhance_visible ? enhance::enhance_visible(rect_visible[i]) : rect_visible[i];
+    cv::Mat fused = node::prepare(*out_fused, eye, grid_size_, CV_8UC3);
+    fuse::fuse(infrared_agc, visible_for_fusion, config_.fusion).copyTo(fused);
+  }
+  copy_header(visible, *out_fused, fusion_start_ns);
   fused_out_.publish(std::move(out_fused));
 }
 

@@ -2,8 +2,9 @@
 // thermovis-rectify-fuse: raw visible + infrared stereo frames -> both bands on the visible pair's
 // rectified grid (composed maps computed once, fixed-point remap), infrared gain control,
 // visible contrast enhancement and fusion, per eye. Publishes the rectified visible (BGR8),
-// rectified infrared (MONO8) and fused (BGR8) stereo frames, each written in place into a loaned
-// sample. Only the newest capture is processed: older ones waiting are dropped and counted.
+// rectified infrared (MONO16 raw counts) and fused (BGR8) stereo frames, each written in place into
+// a loaned sample. Only the newest capture is processed: older ones waiting are dropped and
+// counted.
 #include <array>
 #include <chrono>
 #include <memory>
@@ -30,8 +31,9 @@ struct RectifyFuseConfig {
 
 struct RectifyFuseStats {
   std::uint64_t processed = 0;
-  std::uint64_t dropped = 0;  // captures superseded before they were processed
-  std::uint64_t bad = 0;      // frames rejected (bad header, size mismatch)
+  std::uint64_t dropped = 0;   // captures superseded before they were processed
+  std::uint64_t bad = 0;       // frames rejected (bad header, size mismatch)
+  std::uint64_t repeated = 0;  // captures received again or out of order, skipped
 };
 
 class RectifyFuseNode {
@@ -57,7 +59,7 @@ class RectifyFuseNode {
   transport::Writer<GridStereoFrame> fused_out_;
   node::HealthReporter health_;
   RectifyFuseStats stats_;
-  cv::Mat infrared_scratch_;  // 16-bit infrared on the grid
+  std::uint64_t last_seq_ = 0;  // newest capture taken
 };
 
 }  // namespace thermovis::rectify_fuse

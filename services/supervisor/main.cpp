@@ -13,12 +13,16 @@ int main(int argc, char** argv) {
   CLI::App app{"thermovis-supervisor: starts, watches and restarts the pipeline's services"};
   node::CommonOptions common;
   common.service = "thermovis-supervisor";
-  std::string manifest_path, log_dir = "/tmp/thermovis-logs";
+  std::string manifest_path, scene, log_dir = "/tmp/thermovis-logs";
+  std::vector<std::string> extra_vars;
   double seconds = 0.0;
   bool json = false;
   supervisor::SupervisorConfig config;
   node::add_common_options(app, common);
   app.add_option("--manifest", manifest_path, "pipeline manifest (default deploy/pipeline.yaml)");
+  app.add_option("--scene", scene,
+                 "simulated scene for the manifest's ${scene} (default deploy/scenes/paper.yaml)");
+  app.add_option("--var", extra_vars, "KEY=VALUE for the manifest's ${KEY} (repeatable)");
   app.add_option("--seconds", seconds, "stop after this long (0: until SIGINT/SIGTERM)")
       ->capture_default_str();
   app.add_option("--log-dir", log_dir, "folder of the services' logs")->capture_default_str();
@@ -32,9 +36,13 @@ int main(int argc, char** argv) {
     const auto manifest =
         process::load_manifest(manifest_path.empty() ? runtime::shipped_file("pipeline.yaml")
                                                      : std::filesystem::path(manifest_path));
-    config.vars = {{"bin", std::filesystem::canonical("/proc/self/exe").parent_path().string()},
-                   {"domain", std::to_string(common.domain)},
-                   {"profile", common.profile}};
+    config.vars = supervisor::default_vars(common.domain, common.profile, scene);
+    for (const std::string& item : extra_vars) {
+      const auto eq = item.find('=');
+      if (eq == std::string::npos || eq == 0)
+        throw std::invalid_argument("--var needs KEY=VALUE, got '" + item + "'");
+      config.vars[item.substr(0, eq)] = item.substr(eq + 1);
+    }
     config.log_dir = log_dir;
     auto participant = node::make_participant(common);
     supervisor::Supervisor sup(*participant, manifest, config);

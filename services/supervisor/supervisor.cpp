@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "thermovis/runtime/rig_io.hpp"
 #include "thermovis/transport/qos.hpp"
 #include "thermovis/transport/topics.hpp"
 
@@ -119,6 +120,20 @@ void Supervisor::check_hung() {
   }
 }
 
+void Supervisor::reset_statistics() {
+  take_timing();
+  take_health();
+  latencies_ms_.clear();
+  stage_ms_.clear();
+  late_.clear();
+  first_seq_ = last_seq_ = 0;
+  base_bad_inputs_ = base_deadline_misses_ = base_restarts_ = 0;
+  const LatencySummary now = summary();
+  base_bad_inputs_ = now.bad_inputs;
+  base_deadline_misses_ = now.deadline_misses;
+  base_restarts_ = now.restarts;
+}
+
 LatencySummary Supervisor::summary() const {
   LatencySummary s;
   s.frames = latencies_ms_.size();
@@ -140,11 +155,28 @@ LatencySummary Supervisor::summary() const {
   }
   for (const auto& status : group_.status())
     s.restarts += static_cast<std::uint64_t>(status.restarts);
+  // Counters since the last reset (a restarted service starts its counters again at zero).
+  s.bad_inputs -= std::min(s.bad_inputs, base_bad_inputs_);
+  s.deadline_misses -= std::min(s.deadline_misses, base_deadline_misses_);
+  s.restarts -= std::min(s.restarts, base_restarts_);
   for (const auto& [stage, values] : stage_ms_) {
     s.stages.push_back({stage_name(stage), percentile(values, 50), percentile(values, 99),
                         *std::max_element(values.begin(), values.end())});
   }
   return s;
+}
+
+std::map<std::string, std::string> default_vars(int domain, const std::string& profile,
+                                                const std::string& scene) {
+  const std::filesystem::path scene_path =
+      scene.empty() ? runtime::shipped_file("scenes/paper.yaml") : std::filesystem::path(scene);
+  if (!std::filesystem::exists(scene_path))
+    throw std::runtime_error("scene file " + scene_path.string() + " does not exist");
+  return {{"bin", std::filesystem::canonical("/proc/self/exe").parent_path().string()},
+          {"domain", std::to_string(domain)},
+          {"profile", profile},
+          {"scene", std::filesystem::absolute(scene_path).string()},
+          {"prerender", "0"}};
 }
 
 std::string summary_json(const LatencySummary& s) {

@@ -66,6 +66,10 @@ class Supervisor {
   std::vector<RangeArray> step();
   void stop();
 
+  // Forgets the latencies, late frames and counts so far (e.g. after a warm-up): summary()
+  // then covers only what follows. Cumulative counters of health are taken as the new zero.
+  void reset_statistics();
+
   LatencySummary summary() const;
   std::vector<process::ServiceStatus> services() const { return group_.status(); }
   const std::map<std::string, Health>& health() const { return health_; }
@@ -88,7 +92,15 @@ class Supervisor {
   std::map<Stage, std::vector<double>> stage_ms_;
   std::vector<LateFrame> late_;
   std::uint64_t first_seq_ = 0, last_seq_ = 0;
+  // Cumulative counts at the last reset_statistics().
+  std::uint64_t base_bad_inputs_ = 0, base_deadline_misses_ = 0, base_restarts_ = 0;
 };
+
+// The substitutions of the shipped manifest: bin (the folder of the running executable, where
+// the services are), domain, profile, scene (the shipped paper scene when empty; made absolute),
+// prerender (0: the bridge renders live).
+std::map<std::string, std::string> default_vars(int domain, const std::string& profile,
+                                                const std::string& scene);
 
 // The summary as JSON (frames, p50_ms, p99_ms, max_ms, over_deadline, deadline_misses,
 // bad_inputs, restarts, stages) and as the lines a person reads.

@@ -46,7 +46,8 @@ json range_array(const void* sample) {
                        {"y_m", t.y_m},
                        {"z_m", t.z_m},
                        {"box", to_json(t.box)},
-                       {"point_count", t.point_count}});
+                       {"point_count", t.point_count},
+                       {"band", t.band}});
   }
   return {{"frame_seq", r.frame_seq},
           {"capture_time_ns", r.capture_time_ns},

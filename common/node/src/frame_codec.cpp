@@ -1,5 +1,6 @@
 #include "thermovis/node/frame_codec.hpp"
 
+#include <cmath>
 #include <string>
 
 namespace thermovis::node {
@@ -101,6 +102,39 @@ cv::Mat prepare(GridStereoFrame& f, Eye eye, cv::Size size, int cv_type) {
   f.width(static_cast<std::uint32_t>(size.width));
   f.height(static_cast<std::uint32_t>(size.height));
   return view(f, eye);
+}
+
+cv::Mat view(const GridStereoFrame& f, Eye eye, cv::Size grid) {
+  if (static_cast<int>(f.width()) != grid.width || static_cast<int>(f.height()) != grid.height) {
+    throw FrameError(
+        "grid frame " + std::to_string(f.seq()) + ": " + size_text(f.width(), f.height()) +
+        " image, this service's grid is " +
+        size_text(static_cast<std::uint32_t>(grid.width), static_cast<std::uint32_t>(grid.height)) +
+        " (give every service the same --grid-scale and --projection)");
+  }
+  return view(f, eye);
+}
+
+cv::Rect to_rect(const Box2D& box) {
+  const float fields[] = {box.x(), box.y(), box.width(), box.height()};
+  for (const float v : fields) {
+    if (!std::isfinite(v) || std::abs(v) > 1e6f) return {};
+  }
+  const int x0 = static_cast<int>(std::floor(box.x()));
+  const int y0 = static_cast<int>(std::floor(box.y()));
+  const int x1 = static_cast<int>(std::ceil(box.x() + box.width()));
+  const int y1 = static_cast<int>(std::ceil(box.y() + box.height()));
+  if (x1 <= x0 || y1 <= y0) return {};
+  return {x0, y0, x1 - x0, y1 - y0};
+}
+
+Box2D to_box(const cv::Rect& rect) {
+  Box2D box;
+  box.x(static_cast<float>(rect.x));
+  box.y(static_cast<float>(rect.y));
+  box.width(static_cast<float>(rect.width));
+  box.height(static_cast<float>(rect.height));
+  return box;
 }
 
 }  // namespace thermovis::node

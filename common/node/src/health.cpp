@@ -1,5 +1,7 @@
 #include "thermovis/node/health.hpp"
 
+#include <iostream>
+
 #include "thermovis/transport/clock.hpp"
 #include "thermovis/transport/qos.hpp"
 #include "thermovis/transport/topics.hpp"
@@ -9,6 +11,8 @@ namespace {
 
 // Good frames after a bad input before the state goes back from DEGRADED to OK.
 constexpr std::uint64_t kRecoverAfterFrames = 50;
+// Bad inputs written to the log one by one before thinning.
+constexpr std::uint32_t kLoggedErrors = 20;
 
 std::string clip(const std::string& text, std::size_t max) {
   return text.size() <= max ? text : text.substr(0, max - 3) + "...";
@@ -53,6 +57,10 @@ void HealthReporter::bad_input(const std::string& message) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     ++errors_;
+    // The service's log names every problem; a flood of bad frames is thinned to every 100th.
+    if (errors_ <= kLoggedErrors || errors_ % 100 == 0) {
+      std::cerr << service_ << ": bad input #" << errors_ << ": " << message << std::endl;
+    }
     good_since_error_ = 0;
     message_ = message;
     if (state_ != HEALTH_FAILED && state_ != HEALTH_STOPPING) state_ = HEALTH_DEGRADED;

@@ -25,4 +25,17 @@ rectify::StereoGeometry pipeline_geometry(const camera::Rig& rig, const GridOpti
   return rectify::make_stereo_geometry(rig, rig.visible, grid);
 }
 
+rectify::StereoGeometry registered_infrared_geometry(const camera::Rig& rig,
+                                                     const GridOptions& options) {
+  rectify::StereoGeometry g = pipeline_geometry(rig, options);
+  const Eigen::Vector3d left = rig.camera(rig.infrared.left).T_ref_cam.translation();
+  const Eigen::Vector3d right = rig.camera(rig.infrared.right).T_ref_cam.translation();
+  g.left = rig.infrared.left;
+  g.right = rig.infrared.right;
+  g.T_ref_left_rect.translation() = left;
+  g.T_ref_right_rect.translation() = right;
+  g.baseline_m = (g.T_ref_left_rect.linear().transpose() * (right - left)).x();
+  return g;
+}
+
 }  // namespace thermovis::node

@@ -1,10 +1,13 @@
 #include "thermovis/node/service.hpp"
 
+#include <malloc.h>
 #include <signal.h>
 
 #include <algorithm>
 #include <csignal>
 #include <cstdlib>
+#include <iostream>
+#include <opencv2/core/utility.hpp>
 
 namespace thermovis::node {
 namespace {
@@ -36,6 +39,10 @@ void add_common_options(CLI::App& app, CommonOptions& options) {
                  "DDS participant profile: thermovis_host (shared memory) or thermovis_loopback");
   app.add_option("--profiles-file", options.profiles_file, "DDS XML profiles file");
   app.add_option("--rig", options.rig, "rig YAML (default deploy/rigs/paper.yaml)");
+  app.add_option("--threads", options.threads,
+                 "OpenCV worker threads (1: sequential, the default; -1: one per core)")
+      ->capture_default_str()
+      ->check(CLI::Range(-1, 64));
 }
 
 std::unique_ptr<transport::Participant> make_participant(const CommonOptions& options) {
@@ -47,6 +54,27 @@ std::unique_ptr<transport::Participant> make_participant(const CommonOptions& op
                              : options.profiles_file;
   config.name = options.service;
   return std::make_unique<transport::Participant>(config);
+}
+
+int run_service(const CommonOptions& options, const std::function<void()>& body) {
+  install_stop_handlers();
+  // Per-frame images of a few MB are allocated and freed at 50 Hz; glibc would map and unmap
+  // each one (anything over 128 kB by default), and the page faults of touching fresh pages
+  // cost more than the image processing itself. Keep such blocks on the heap for reuse.
+  mallopt(M_MMAP_THRESHOLD, 32 * 1024 * 1024);
+  mallopt(M_TRIM_THRESHOLD, 256 * 1024 * 1024);
+  cv::setNumThreads(options.threads);
+  try {
+    body();
+  } catch (const std::exception& e) {
+    std::cerr << options.service << ": error: " << e.what() << std::endl;
+    return 1;
+  }
+  return 0;
+}
+
+std::chrono::nanoseconds deadline_from_ms(double milliseconds) {
+  return std::chrono::nanoseconds(static_cast<std::int64_t>(milliseconds * 1e6));
 }
 
 void append_stamp(PipelineStamps& stamps, Stage stage, std::int64_t start_ns, std::int64_t end_ns) {

@@ -238,4 +238,17 @@ TargetRange range_target(const RangingGeometry& geometry, const cv::Rect& box,
   return r;
 }
 
+double max_disparity_for(const RangingGeometry& geometry, double min_distance_m) {
+  return geometry.grid.intrinsics().f * geometry.baseline_m / std::max(0.1, min_distance_m) + 2.0;
+}
+
+void move_to_centre(TargetRange& range, const RangingGeometry& geometry, double offset_m) {
+  if (range.status != RangeStatus::ok || offset_m == 0.0) return;
+  const double scale = (range.distance_m + offset_m) / range.distance_m;
+  const Eigen::Vector3d origin = geometry.T_ref_left_rect.translation();
+  range.position_m = origin + (range.position_m - origin) * scale;
+  range.depth_m *= scale;
+  range.distance_m += offset_m;
+}
+
 }  // namespace thermovis::range

@@ -105,20 +105,6 @@ cv::Mat remap_with(const cv::Mat& image, const cv::Mat& map) {
   return out;
 }
 
-double max_disparity_px(const RangingGeometry& g, double min_distance_m) {
-  return g.grid.intrinsics().f * g.baseline_m / std::max(0.1, min_distance_m) + 2.0;
-}
-
-// Moves a range from the target's surface to `offset_m` further along the line of sight.
-void add_centre_offset(TargetRange& r, const RangingGeometry& g, double offset_m) {
-  if (r.status != RangeStatus::ok || offset_m == 0.0) return;
-  const double scale = (r.distance_m + offset_m) / r.distance_m;
-  const Eigen::Vector3d origin = g.T_ref_left_rect.translation();
-  r.position_m = origin + (r.position_m - origin) * scale;
-  r.depth_m *= scale;
-  r.distance_m += offset_m;
-}
-
 }  // namespace
 
 RectifiedFrames StereoRanger::rectify(const RawFrames& raw) const {
@@ -209,7 +195,7 @@ RangedTarget StereoRanger::range(const RectifiedFrames& frames, Mode mode, const
   const RangingGeometry& g = geometry(mode);
   match::MatchOptions mo = options.match;
   mo.min_disparity_px = 0.0;
-  mo.max_disparity_px = max_disparity_px(g, options.min_distance_m);
+  mo.max_disparity_px = max_disparity_for(g, options.min_distance_m);
   auto run = [&](const cv::Mat& left, const cv::Mat& right, const RangingGeometry& geo) {
     out.matching = match::match_box(left, right, box, mo);
     out.range = range_target(geo, box, out.matching.matches, options.range);
@@ -260,7 +246,7 @@ RangedTarget StereoRanger::range(const RectifiedFrames& frames, Mode mode, const
                   impl_->visible.geometry.T_ref_right_rect, right_roi);
     run(fused_left, fused_right, g);
   }
-  add_centre_offset(out.range, g, options.centre_offset_m);
+  move_to_centre(out.range, g, options.centre_offset_m);
   return out;
 }
 

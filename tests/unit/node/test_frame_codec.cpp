@@ -1,6 +1,7 @@
 // Frame <-> cv::Mat views: zero-copy, and clear errors for impossible frame headers.
 #include <gtest/gtest.h>
 
+#include <limits>
 #include <memory>
 #include <opencv2/core.hpp>
 
@@ -62,11 +63,33 @@ TEST(FrameCodec, ImpossibleHeadersAreNamed) {
 
 TEST(Stamps, AppendKeepsOrderAndNeverOverflows) {
   thermovis::PipelineStamps stamps;
-  for (int i = 0; i < 12; ++i)
-    tn::append_stamp(stamps, static_cast<thermovis::Stage>(i % 5 + 1), i, i + 1);
-  EXPECT_EQ(stamps.count(), stamps.stamps().size());
-  EXPECT_EQ(stamps.stamps()[0].start_ns(), 0);
-  EXPECT_EQ(stamps.stamps().back().start_ns(), 11);  // the last stage's stamp survives
+  for (int i = 0; i < 12; ++i) {
+    tn::append_stamp(stamps, static_cast<thermovis::Stage>(i % 5 + 1), 1000 * i,
+                     1000 * i + 1000 * (i + 1));
+  }
+  // Every slot used, the first ones in order, the last slot holding the newest stage.
+  for (const auto& stamp : stamps.stamps()) EXPECT_NE(stamp.stage(), thermovis::STAGE_NONE);
+  EXPECT_EQ(stamps.stamps()[0].stage(), thermovis::Stage{1});
+  EXPECT_EQ(stamps.stamps()[0].duration_us(), 1u);
+  EXPECT_EQ(stamps.stamps()[0].end_ns(), 1000);
+  EXPECT_EQ(stamps.stamps()[1].end_ns(), 3000);
+  EXPECT_EQ(stamps.stamps().back().stage(), thermovis::Stage{11 % 5 + 1});
+  EXPECT_EQ(stamps.stamps().back().end_ns(), 11000 + 12000);
+  EXPECT_EQ(stamps.stamps().back().duration_us(), 12u);
+}
+
+TEST(Boxes, RoundOutwardsAndRejectNonFiniteFields) {
+  thermovis::Box2D box;
+  box.x(10.5f);
+  box.y(20.2f);
+  box.width(5.0f);
+  box.height(4.5f);
+  EXPECT_EQ(tn::to_rect(box), cv::Rect(10, 20, 6, 5));
+  EXPECT_EQ(tn::to_rect(tn::to_box(cv::Rect(3, 4, 5, 6))), cv::Rect(3, 4, 5, 6));
+  box.width(std::numeric_limits<float>::quiet_NaN());
+  EXPECT_TRUE(tn::to_rect(box).empty());
+  box.width(-3.0f);
+  EXPECT_TRUE(tn::to_rect(box).empty());
 }
 
 }  // namespace

@@ -24,11 +24,19 @@ PixelFormat pixel_format_of(int cv_type);
 cv::Mat view(const VisibleStereoFrame& frame, Eye eye);
 cv::Mat view(const InfraredStereoFrame& frame, Eye eye);
 cv::Mat view(const GridStereoFrame& frame, Eye eye);
+// The same, also checking that the frame is on the grid the reading service works on (every
+// service of a pipeline must use the same grid options).
+cv::Mat view(const GridStereoFrame& frame, Eye eye, cv::Size grid);
 
 // Writable views into frames being filled (e.g. a loaned sample): sets width, height and
 // pixel_format, returns the Mat to render or copy into. FrameError when `size` does not fit.
 cv::Mat prepare(VisibleStereoFrame& frame, Eye eye, cv::Size size);
 cv::Mat prepare(InfraredStereoFrame& frame, Eye eye, cv::Size size);
 cv::Mat prepare(GridStereoFrame& frame, Eye eye, cv::Size size, int cv_type);
+
+// Boxes of the perception messages <-> OpenCV rectangles (pixels of the rectified left image).
+// to_rect rounds outwards and gives an empty rectangle for a box with a non-finite field.
+cv::Rect to_rect(const Box2D& box);
+Box2D to_box(const cv::Rect& rect);
 
 }  // namespace thermovis::node

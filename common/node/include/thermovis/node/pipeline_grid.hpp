@@ -20,4 +20,13 @@ void add_grid_options(CLI::App& app, GridOptions& options);
 
 rectify::StereoGeometry pipeline_geometry(const camera::Rig& rig, const GridOptions& options);
 
+// The infrared pair as it appears on the pipeline grid (each infrared camera registered at
+// infinity onto its eye's visible camera): the same grid and rotation, the infrared cameras'
+// own centres. A point's disparity between the two registered infrared images follows the
+// infrared baseline, so ranging on them uses this geometry: baseline_m is the x component of
+// the infrared cameras' offset in the rectified frame (the other components shift rows by a
+// fraction of a pixel at the distances of interest).
+rectify::StereoGeometry registered_infrared_geometry(const camera::Rig& rig,
+                                                     const GridOptions& options);
+
 }  // namespace thermovis::node

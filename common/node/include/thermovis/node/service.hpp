@@ -3,7 +3,9 @@
 // service takes (domain, DDS profile, rig) and the per-stage time stamps it appends.
 #include <CLI/CLI.hpp>
 #include <atomic>
+#include <chrono>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -23,12 +25,24 @@ struct CommonOptions {
   std::string profile = transport::kHostProfile;
   std::filesystem::path profiles_file;  // empty: the shipped file of `profile`
   std::filesystem::path rig;            // empty: runtime::default_rig_path()
+  // OpenCV worker threads. 1 (sequential) by default: the pipeline's processes already share
+  // the cores, and idle OpenCV/TBB workers spin between parallel regions, burning the CPU the
+  // other services need.
+  int threads = 1;
 };
 
-// Adds --domain, --profile, --profiles-file and --rig to `app`.
+// Adds --domain, --profile, --profiles-file, --rig and --threads to `app`.
 void add_common_options(CLI::App& app, CommonOptions& options);
 
 std::unique_ptr<transport::Participant> make_participant(const CommonOptions& options);
+
+// A service's main after option parsing: installs the stop handlers, sets OpenCV's threads,
+// runs `body` and turns an exception into "<service>: error: <what>" on stderr and exit code 1
+// (0 otherwise).
+int run_service(const CommonOptions& options, const std::function<void()>& body);
+
+// A DEADLINE period given in milliseconds on a command line.
+std::chrono::nanoseconds deadline_from_ms(double milliseconds);
 
 // Fills the first unused stamp (stage == STAGE_NONE) with this stage's processing time and end;
 // a full list keeps its first entries and the last slot takes the newest stage, so the end of

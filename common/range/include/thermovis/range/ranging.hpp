@@ -108,6 +108,14 @@ TargetRange range_target(const RangingGeometry& geometry, const cv::Rect& box,
                          const std::vector<match::Correspondence>& matches,
                          const RangeOptions& options = {});
 
+// The largest disparity a target at min_distance_m or further can have on the grid (the matcher's
+// search range), with 2 px of margin.
+double max_disparity_for(const RangingGeometry& geometry, double min_distance_m);
+
+// Moves a range from the target's visible surface `offset_m` further along the line of sight
+// (to the target's centre); does nothing to a range without a distance.
+void move_to_centre(TargetRange& range, const RangingGeometry& geometry, double offset_m);
+
 // The gross-outlier screen then Eq. 34 (max_passes passes): the indices of the kept values.
 std::vector<int> reject_outliers_eq34(const std::vector<double>& values, int max_passes);
 

@@ -8,8 +8,8 @@ inline constexpr const char* kInfraredFrames = "thermovis/frames/infrared";  // 
 inline constexpr const char* kRectifiedVisible =
     "thermovis/rectified/visible";  // GridStereoFrame, BGR8
 inline constexpr const char* kRectifiedInfrared =
-    "thermovis/rectified/infrared";                                 // GridStereoFrame, MONO8
-inline constexpr const char* kFused = "thermovis/fused";            // GridStereoFrame
+    "thermovis/rectified/infrared";                       // GridStereoFrame, MONO16 raw counts
+inline constexpr const char* kFused = "thermovis/fused";  // GridStereoFrame
 inline constexpr const char* kDetections = "thermovis/detections";  // DetectionArray
 inline constexpr const char* kMatches = "thermovis/matches";        // MatchArray
 inline constexpr const char* kRanges = "thermovis/ranges";          // RangeArray

@@ -1,0 +1,127 @@
+#include "detect_node.hpp"
+
+#include <algorithm>
+
+#include "thermovis/node/frame_codec.hpp"
+#include "thermovis/node/service.hpp"
+#include "thermovis/transport/clock.hpp"
+#include "thermovis/transport/qos.hpp"
+#include "thermovis/transport/topics.hpp"
+
+namespace thermovis::detect_service {
+namespace {
+
+// This node holds at most one frame of each topic while it works on it.
+transport::TopicQos frame_reader_qos(std::chrono::nanoseconds deadline) {
+  return transport::frame_topic_qos(deadline, 2, 2);
+}
+
+std::string clipped_label(const std::string& label) { return label.substr(0, MAX_LABEL_LENGTH); }
+
+}  // namespace
+
+DetectNode::DetectNode(transport::Participant& participant, const camera::Rig& rig,
+                       const DetectConfig& config, const std::string& service_name)
+    : config_(config),
+      grid_(node::pipeline_geometry(rig, config.grid).grid),
+      infrared_in_(participant, transport::topics::kRectifiedInfrared,
+                   frame_reader_qos(config.deadline)),
+      out_(participant, transport::topics::kDetections, transport::event_topic_qos()),
+      health_(participant, service_name, [this] {
+        std::vector<transport::TopicCountersSnapshot> counters{infrared_in_.counters(),
+                                                               out_.counters()};
+        if (fused_in_) counters.push_back(fused_in_->counters());
+        return counters;
+      }) {
+  if (config_.hog) {
+    fused_in_ = std::make_unique<transport::Reader<GridStereoFrame>>(
+        participant, transport::topics::kFused, frame_reader_qos(config.deadline));
+  }
+  health_.set_state(HEALTH_STARTING, "waiting for rectified infrared frames");
+}
+
+void DetectNode::run() {
+  while (!node::stop_requested()) {
+    health_.tick();
+    if (!infrared_in_.wait_for_data(std::chrono::milliseconds(100))) continue;
+    auto frames = infrared_in_.take();
+    if (frames.empty()) continue;
+    stats_.dropped += frames.size() - 1;  // only the newest is worth the time
+    const std::size_t newest = frames.size() - 1;
+    if (stats_.processed + stats_.bad > 0 && frames[newest].seq() <= last_seq_) {
+      ++stats_.repeated;  // a frame seen before (or older): never processed twice
+      continue;
+    }
+    last_seq_ = frames[newest].seq();
+    try {
+      process(frames[newest]);
+      if (!frames.still_valid(newest)) {
+        // The writer reused the sample while it was read: the detections may mix two frames.
+        throw node::FrameError("frame " + std::to_string(frames[newest].seq()) +
+                               " was overwritten while it was processed");
+      }
+      ++stats_.processed;
+      health_.frame_processed();
+    } catch (const std::exception& e) {
+      ++stats_.bad;
+      health_.bad_input(e.what());
+    }
+  }
+  health_.set_state(HEALTH_STOPPING, "processed " + std::to_string(stats_.processed));
+}
+
+cv::Mat DetectNode::fused_left_for(std::uint64_t seq) {
+  // The fused frame of the same capture is published with the rectified infrared one.
+  for (int attempt = 0; attempt < 5; ++attempt) {
+    auto fused = fused_in_->take();
+    for (std::size_t i = 0; i < fused.size(); ++i) {
+      if (fused[i].seq() == seq)
+        return node::view(fused[i], node::Eye::left, grid_.image_size()).clone();
+    }
+    fused_in_->wait_for_data(std::chrono::milliseconds(2));
+  }
+  return {};
+}
+
+void DetectNode::process(const GridStereoFrame& infrared) {
+  const std::int64_t start_ns = transport::now_ns();
+  const cv::Mat left = node::view(infrared, node::Eye::left, grid_.image_size());
+  if (left.type() != CV_8UC1 && left.type() != CV_16UC1) {
+    throw node::FrameError("rectified infrared frame " + std::to_string(infrared.seq()) +
+                           ": expected MONO8 or MONO16 pixels");
+  }
+  std::vector<detect::Detection> found = detect::detect_warm_blobs(left, grid_, config_.blobs);
+  if (fused_in_) {
+    const cv::Mat fused = fused_left_for(infrared.seq());
+    if (!fused.empty()) {
+      auto people = detect::detect_people_hog(fused, config_.hog_options);
+      found.insert(found.end(), people.begin(), people.end());
+    }
+  }
+  found = detect::merge_detections(std::move(found), config_.nms_iou);
+  std::sort(found.begin(), found.end(), [](const detect::Detection& a, const detect::Detection& b) {
+    return a.score > b.score;
+  });
+  if (found.size() > MAX_TARGETS) found.resize(MAX_TARGETS);  // the strongest fit the message
+
+  DetectionArray out;
+  out.frame_seq(infrared.seq());
+  out.capture_time_ns(infrared.capture_time_ns());
+  std::uint32_t id = 0;
+  for (const auto& d : found) {
+    Detection detection;
+    detection.target_id(id++);
+    detection.label(clipped_label(d.cls));
+    // Scores are margins (warm blobs: robust sigmas over the threshold; HOG: SVM margin);
+    // squashed into 0..1 for consumers that expect a confidence.
+    detection.score(static_cast<float>(d.score / (1.0 + std::abs(d.score))));
+    detection.box(node::to_box(d.box));
+    out.detections().push_back(detection);
+  }
+  stats_.detections += found.size();
+  out.stamps(infrared.stamps());
+  node::append_stamp(out.stamps(), STAGE_DETECT, start_ns, transport::now_ns());
+  out_.write(out);
+}
+
+}  // namespace thermovis::detect_service

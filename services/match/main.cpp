@@ -1,0 +1,52 @@
+// thermovis-match: stereo correspondences inside each detected box.
+#include <CLI/CLI.hpp>
+#include <iostream>
+
+#include "match_node.hpp"
+#include "thermovis/node/service.hpp"
+#include "thermovis/runtime/rig_io.hpp"
+
+int main(int argc, char** argv) {
+  using namespace thermovis;
+  CLI::App app{"thermovis-match: stereo correspondences of every detected target"};
+  node::CommonOptions common;
+  common.service = "thermovis-match";
+  match_service::MatchConfig config;
+  std::string method = "ncc";
+  double deadline_ms = 20.0;
+  node::add_common_options(app, common);
+  node::add_grid_options(app, config.grid);
+  std::string band = "auto";
+  app.add_option("--band", band,
+                 "frames to match: auto (visible, infrared where visible finds too few points) "
+                 "| visible | infrared | fused")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"auto", "visible", "infrared", "fused"}));
+  app.add_option("--min-visible-points", config.min_visible_points,
+                 "auto: fewer visible correspondences than this -> the infrared pair")
+      ->capture_default_str();
+  app.add_option("--method", method, "ncc | orb | akaze | sift | sgbm")->capture_default_str();
+  app.add_option("--min-distance-m", config.min_distance_m,
+                 "nearest target searched (sets the largest disparity)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--deadline-ms", deadline_ms, "DEADLINE QoS period of the frame topic")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  CLI11_PARSE(app, argc, argv);
+  config.deadline = node::deadline_from_ms(deadline_ms);
+
+  return node::run_service(common, [&] {
+    config.match.method = match::parse_method(method);
+    config.band = match_service::parse_band(band);
+    const auto rig =
+        runtime::load_rig(common.rig.empty() ? runtime::default_rig_path() : common.rig);
+    auto participant = node::make_participant(common);
+    match_service::MatchNode matcher(*participant, rig, config, common.service);
+    matcher.run();
+    const auto stats = matcher.stats();
+    std::cerr << common.service << ": answered " << stats.processed << ", without frame "
+              << stats.no_frame << ", bad " << stats.bad << ", points " << stats.points
+              << ", on infrared " << stats.infrared_targets << "\n";
+  });
+}

@@ -1,0 +1,34 @@
+// thermovis-range: distances, positions and uncertainties of the matched targets.
+#include <CLI/CLI.hpp>
+#include <iostream>
+
+#include "range_node.hpp"
+#include "thermovis/node/service.hpp"
+#include "thermovis/runtime/rig_io.hpp"
+
+int main(int argc, char** argv) {
+  using namespace thermovis;
+  CLI::App app{"thermovis-range: ranges of the matched targets on thermovis/ranges"};
+  node::CommonOptions common;
+  common.service = "thermovis-range";
+  range_service::RangeConfig config;
+  node::add_common_options(app, common);
+  node::add_grid_options(app, config.grid);
+  app.add_option("--min-points", config.range.min_points, "kept points needed for a distance")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_flag("--surface", config.surface,
+               "report the distance of the target's visible surface, not of its centre");
+  CLI11_PARSE(app, argc, argv);
+
+  return node::run_service(common, [&] {
+    const auto rig =
+        runtime::load_rig(common.rig.empty() ? runtime::default_rig_path() : common.rig);
+    auto participant = node::make_participant(common);
+    range_service::RangeNode ranger(*participant, rig, config, common.service);
+    ranger.run();
+    const auto stats = ranger.stats();
+    std::cerr << common.service << ": answered " << stats.processed << ", ranged " << stats.ranged
+              << ", unranged " << stats.unranged << ", bad " << stats.bad << "\n";
+  });
+}
