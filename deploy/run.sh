@@ -1,19 +1,13 @@
 #!/usr/bin/env bash
-# Sets everything up (Debian packages, configure, build) and runs the main job on the shipped
-# paper rig. For now the main job is the geometry demo: the rig's cameras (field of view,
-# distortion, baselines), then a synthetic checkerboard rendered through each visible camera's
-# Taylor model and rectified through the visible pair's composed maps (written to
-# $THERMOVIS_DEMO_DIR, default build/demo). Extra arguments (e.g. --json) go to both commands.
+# Sets everything up (Debian packages, configure, build) and runs the main job: the whole
+# multi-process pipeline (bridge, rectify-fuse, detect, match, range under the supervisor) on the
+# built-in simulated rig, printing live ranges with their simulated truth and, at the end, the
+# latency summary. Extra arguments go to `thermovis run` (e.g. --seconds 60, --scene
+# deploy/scenes/night.yaml, --json); Ctrl-C stops it cleanly.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 deploy/install-deps.sh
 build_dir=${THERMOVIS_BUILD_DIR:-build}
 cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release
 cmake --build "$build_dir" -j"$(nproc)"
-demo_dir=${THERMOVIS_DEMO_DIR:-$build_dir/demo}
-mkdir -p "$demo_dir"
-"$build_dir/bin/thermovis" rig info "$@"
-exec "$build_dir/bin/thermovis" rectify --pair visible --checkerboard \
-  --left "$demo_dir/visible-left-raw.png" --right "$demo_dir/visible-right-raw.png" \
-  --out-left "$demo_dir/visible-left-rectified.png" \
-  --out-right "$demo_dir/visible-right-rectified.png" "$@"
+exec "$build_dir/bin/thermovis" run --seconds 30 "$@"

@@ -20,7 +20,7 @@
 #include <thread>
 #include <vector>
 
-#include "child_process.hpp"
+#include "thermovis/test/child_process.hpp"
 #include "thermovis/transport/clock.hpp"
 #include "thermovis/transport/participant.hpp"
 #include "thermovis/transport/reader.hpp"

@@ -12,7 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "child_process.hpp"
+#include "thermovis/test/child_process.hpp"
 #include "range_pattern.hpp"
 #include "thermovis/test/data.hpp"
 

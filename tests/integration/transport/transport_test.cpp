@@ -11,7 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "child_process.hpp"
+#include "thermovis/test/child_process.hpp"
 #include "thermovis/test/data.hpp"
 
 namespace {

@@ -1,0 +1,96 @@
+// thermovis bench pipeline: every service at the capture rate on full-resolution simulated
+// frames; end-to-end and per-stage latency, CPU and memory per process, drops, deadline misses
+// and the ranging error against the simulated truth, after a warm-up.
+#include <chrono>
+#include <cmath>
+#include <iomanip>
+#include <iostream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "command.hpp"
+#include "pipeline_session.hpp"
+#include "thermovis/node/service.hpp"
+
+namespace {
+
+struct Options {
+  thermovis::cli::SessionOptions session;
+  double seconds = 30.0;
+  double warmup_s = 5.0;
+  bool json = false;
+};
+
+// Runs the session for `seconds`, or until a stop signal; false when stopped early.
+bool run_for(thermovis::cli::PipelineSession& session, double seconds) {
+  const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  while (std::chrono::steady_clock::now() < end) {
+    if (thermovis::node::stop_requested()) return false;
+    session.step();
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  return true;
+}
+
+int run_bench(const Options& opt) {
+  thermovis::node::install_stop_handlers();
+  thermovis::cli::PipelineSession session(opt.session);
+  session.start();
+  if (!opt.json) {
+    std::cout << "warming up for " << opt.warmup_s << " s, then measuring for " << opt.seconds
+              << " s (DDS domain " << opt.session.domain << ")" << std::endl;
+  }
+  run_for(session, opt.warmup_s);
+  session.reset_statistics();
+  run_for(session, opt.seconds);
+  const auto cpu = session.cpu();  // before stopping: the processes must still be there
+  session.stop();
+  const auto latency = session.latency();
+  const auto errors = session.errors();
+  if (opt.json) {
+    auto j = nlohmann::json::parse(thermovis::supervisor::summary_json(latency));
+    j["seconds"] = opt.seconds;
+    j["prerender"] = opt.session.prerender;
+    nlohmann::json processes = nlohmann::json::object();
+    for (const auto& p : cpu) {
+      processes[p.service] = {
+          {"cpu_percent",
+           std::isfinite(p.cpu_percent) ? nlohmann::json(p.cpu_percent) : nlohmann::json()},
+          {"rss_mb", p.rss_mb}};
+    }
+    j["processes"] = processes;
+    j["ranges"] = errors.ranges;
+    j["ranges_on_target"] = errors.matched;
+    j["mean_abs_error_m"] = errors.mean_abs_error_m;
+    j["p95_abs_error_m"] = errors.p95_abs_error_m;
+    j["mean_abs_relative_error"] = errors.mean_abs_relative_error;
+    std::cout << j.dump() << std::endl;
+  } else {
+    std::cout << thermovis::supervisor::summary_text(latency, session.deadline_ms());
+    for (const auto& p : cpu) {
+      std::cout << "  process " << std::setw(13) << std::left << p.service << std::right << " cpu "
+                << std::fixed << std::setprecision(1) << std::setw(6) << p.cpu_percent << " %  rss "
+                << std::setw(7) << p.rss_mb << " MB\n";
+    }
+    std::cout << thermovis::cli::errors_text(errors);
+  }
+  return latency.frames > 0 ? 0 : 2;
+}
+
+THERMOVIS_COMMAND("bench pipeline",
+                  "all services at 50 Hz: latency p50/p99/max per stage, CPU, drops, misses",
+                  [](CLI::App& app) -> thermovis::cli::Runner {
+                    auto opt = std::make_shared<Options>();
+                    thermovis::cli::add_session_options(app, opt->session);
+                    app.add_option("--seconds", opt->seconds, "measured time")
+                        ->capture_default_str()
+                        ->check(CLI::PositiveNumber);
+                    app.add_option("--warmup", opt->warmup_s, "time before measuring, s")
+                        ->capture_default_str()
+                        ->check(CLI::NonNegativeNumber);
+                    app.add_flag("--json", opt->json, "one JSON object");
+                    return [opt] { return run_bench(*opt); };
+                  });
+
+}  // namespace

@@ -1,0 +1,71 @@
+// thermovis run: the whole pipeline on the simulated rig, one line per range with its truth and
+// error, and the latency summary at the end.
+#include <chrono>
+#include <iostream>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "command.hpp"
+#include "pipeline_session.hpp"
+#include "thermovis/node/service.hpp"
+
+namespace {
+
+using thermovis::cli::PipelineSession;
+
+struct Options {
+  thermovis::cli::SessionOptions session;
+  double seconds = 10.0;
+  bool json = false;
+};
+
+int run_pipeline(Options& opt) {
+  thermovis::node::install_stop_handlers();
+  PipelineSession session(opt.session);
+  session.start();
+  if (!opt.json) {
+    std::cout << "thermovis run: pipeline started on DDS domain " << opt.session.domain
+              << ", logs in " << opt.session.log_dir << " (Ctrl-C stops)" << std::endl;
+  }
+  const auto start = std::chrono::steady_clock::now();
+  while (!thermovis::node::stop_requested()) {
+    for (const auto& checked : session.step()) {
+      std::cout << (opt.json ? thermovis::cli::range_json(checked)
+                             : thermovis::cli::range_line(checked))
+                << std::endl;
+    }
+    if (opt.seconds > 0 &&
+        std::chrono::steady_clock::now() - start > std::chrono::duration<double>(opt.seconds))
+      break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  session.stop();
+  const auto latency = session.latency();
+  const auto errors = session.errors();
+  if (opt.json) {
+    auto summary = nlohmann::json::parse(thermovis::supervisor::summary_json(latency));
+    summary["ranges"] = errors.ranges;
+    summary["ranges_on_target"] = errors.matched;
+    summary["mean_abs_error_m"] = errors.mean_abs_error_m;
+    summary["p95_abs_error_m"] = errors.p95_abs_error_m;
+    std::cout << summary.dump() << std::endl;
+  } else {
+    std::cout << thermovis::supervisor::summary_text(latency, session.deadline_ms())
+              << thermovis::cli::errors_text(errors);
+  }
+  return latency.frames > 0 ? 0 : 2;
+}
+
+THERMOVIS_COMMAND("run", "the whole pipeline on the simulated rig: live ranges, truth, latency",
+                  [](CLI::App& app) -> thermovis::cli::Runner {
+                    auto opt = std::make_shared<Options>();
+                    thermovis::cli::add_session_options(app, opt->session);
+                    app.add_option("--seconds", opt->seconds, "run this long (0: until Ctrl-C)")
+                        ->capture_default_str();
+                    app.add_flag("--json", opt->json,
+                                 "ranges as JSON lines, the summary as the last line");
+                    return [opt] { return run_pipeline(*opt); };
+                  });
+
+}  // namespace

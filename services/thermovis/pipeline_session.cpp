@@ -1,0 +1,279 @@
+#include "pipeline_session.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <iomanip>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "thermovis/node/service.hpp"
+#include "thermovis/process/manifest_io.hpp"
+#include "thermovis/runtime/rig_io.hpp"
+#include "thermovis/runtime/scene_io.hpp"
+#include "thermovis/transport/clock.hpp"
+#include "thermovis/transport/participant.hpp"
+
+namespace thermovis::cli {
+namespace {
+
+double wall_seconds() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+// User + system CPU seconds and resident bytes of a process; false when it is gone.
+bool read_process_usage(int pid, double& cpu_s, double& rss_bytes) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
+  std::string text;
+  if (!in || !std::getline(in, text)) return false;
+  const auto close = text.rfind(')');  // the command name may hold spaces and parentheses
+  if (close == std::string::npos) return false;
+  std::istringstream fields(text.substr(close + 2));
+  std::vector<std::string> f;
+  for (std::string item; fields >> item;) f.push_back(item);
+  // After the name: state is field 3 of stat(5), so field n is f[n - 3].
+  if (f.size() < 22) return false;
+  const double ticks = static_cast<double>(sysconf(_SC_CLK_TCK));
+  cpu_s = (std::stod(f[14 - 3]) + std::stod(f[15 - 3])) / ticks;
+  rss_bytes = std::stod(f[24 - 3]) * static_cast<double>(sysconf(_SC_PAGESIZE));
+  return true;
+}
+
+std::string fixed(double value, int digits) {
+  std::ostringstream out;
+  out << std::fixed << std::setprecision(digits) << value;
+  return out.str();
+}
+
+}  // namespace
+
+void add_session_options(CLI::App& app, SessionOptions& s) {
+  if (const char* env = std::getenv("THERMOVIS_DOMAIN"); env != nullptr && *env != '\0')
+    s.domain = std::atoi(env);
+  app.add_option("--scene", s.scene, "simulated scene YAML (default deploy/scenes/paper.yaml)");
+  app.add_option("--rig", s.rig, "rig YAML (default deploy/rigs/paper.yaml)");
+  app.add_option("--manifest", s.manifest, "pipeline manifest (default deploy/pipeline.yaml)");
+  app.add_option("--domain", s.domain,
+                 "DDS domain of the pipeline (default $THERMOVIS_DOMAIN or 0)")
+      ->check(CLI::Range(0, 232));
+  app.add_option("--profile", s.profile, "DDS profile (default: shared memory on this host)");
+  app.add_option("--log-dir", s.log_dir, "folder of the services' logs")->capture_default_str();
+  app.add_option("--latency-deadline-ms", s.latency_deadline_ms, "capture-to-range budget")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  app.add_option("--prerender", s.prerender,
+                 "captures the bridge renders at start and then cycles (0: renders live)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
+}
+
+PipelineSession::PipelineSession(const SessionOptions& options) : options_(options) {
+  const auto rig = runtime::load_rig(options.rig.empty() ? runtime::default_rig_path()
+                                                         : std::filesystem::path(options.rig));
+  supervisor::SupervisorConfig config;
+  const std::string profile = options.profile.empty() ? transport::kHostProfile : options.profile;
+  config.vars = supervisor::default_vars(options.domain, profile, options.scene);
+  config.vars["prerender"] = std::to_string(options.prerender);
+  // The services find the rig through $THERMOVIS_RIG (runtime::default_rig_path).
+  if (!options.rig.empty())
+    setenv("THERMOVIS_RIG", std::filesystem::absolute(options.rig).c_str(), 1);
+  config.log_dir = options.log_dir;
+  config.latency_deadline_ms = options.latency_deadline_ms;
+  // The simulated rig answers where each target is at each frame (the seed only moves noise).
+  sim_ = std::make_unique<sim::SimulatedRig>(rig, runtime::load_scene(config.vars.at("scene")), 1,
+                                             sim::RenderOptions{false, false});
+  node::CommonOptions common;
+  common.service = "thermovis-run";
+  common.domain = options.domain;
+  common.profile = profile;
+  participant_ = node::make_participant(common);
+  const auto manifest =
+      process::load_manifest(options.manifest.empty() ? runtime::shipped_file("pipeline.yaml")
+                                                      : std::filesystem::path(options.manifest));
+  supervisor_ = std::make_unique<supervisor::Supervisor>(*participant_, manifest, config);
+}
+
+PipelineSession::~PipelineSession() { stop(); }
+
+void PipelineSession::start() { supervisor_->start(); }
+
+void PipelineSession::stop() {
+  if (supervisor_) supervisor_->stop();
+}
+
+std::optional<sim::TargetTruth> PipelineSession::truth_for(std::uint64_t seq,
+                                                           const TargetRange& range) {
+  const std::int64_t frame = options_.prerender > 0
+                                 ? static_cast<std::int64_t>(seq % options_.prerender)
+                                 : static_cast<std::int64_t>(seq);
+  const Eigen::Vector3d direction =
+      Eigen::Vector3d(range.x_m(), range.y_m(), range.z_m()).normalized();
+  std::optional<sim::TargetTruth> best;
+  double best_offset_m = 0.0;
+  for (const sim::TargetTruth& t : sim_->truth(frame)) {
+    // How far the target's centre is from the line of sight the range was measured along.
+    const double along = t.position_m.dot(direction);
+    const double offset_m = (t.position_m - along * direction).norm();
+    if (along > 0 && offset_m < kTruthMatchOffsetM + kTruthMatchOffsetPerM * t.distance_m &&
+        (!best || offset_m < best_offset_m)) {
+      best = t;
+      best_offset_m = offset_m;
+    }
+  }
+  return best;
+}
+
+std::vector<CheckedRange> PipelineSession::step() {
+  std::vector<CheckedRange> out;
+  for (const RangeArray& array : supervisor_->step()) {
+    ++frames_;
+    std::int64_t end_ns = array.capture_time_ns();
+    for (const StageStamp& stamp : array.stamps().stamps())
+      end_ns = std::max(end_ns, stamp.end_ns());
+    for (const TargetRange& range : array.targets()) {
+      CheckedRange c;
+      c.seq = array.frame_seq();
+      c.latency_ms = static_cast<double>(end_ns - array.capture_time_ns()) / 1e6;
+      c.range = range;
+      c.truth = truth_for(c.seq, range);
+      if (c.truth) c.error_m = range.distance_m() - c.truth->distance_m;
+      out.push_back(c);
+      checked_.push_back(c);
+    }
+  }
+  return out;
+}
+
+void PipelineSession::reset_statistics() {
+  step();
+  supervisor_->reset_statistics();
+  frames_ = 0;
+  checked_.clear();
+  cpu_marks_.clear();
+  for (const auto& status : supervisor_->services()) {
+    CpuMark mark;
+    double rss = 0;
+    if (status.pid > 0 && read_process_usage(status.pid, mark.cpu_s, rss)) {
+      mark.wall_s = wall_seconds();
+      cpu_marks_[status.pid] = mark;
+    }
+  }
+}
+
+std::vector<ProcessCpu> PipelineSession::cpu() const {
+  std::vector<ProcessCpu> out;
+  for (const auto& status : supervisor_->services()) {
+    ProcessCpu p;
+    p.service = status.name;
+    double cpu_s = 0, rss = 0;
+    if (status.pid > 0 && read_process_usage(status.pid, cpu_s, rss)) {
+      const auto mark = cpu_marks_.find(status.pid);
+      const CpuMark from = mark == cpu_marks_.end() ? CpuMark{} : mark->second;
+      const double wall = wall_seconds() - from.wall_s;
+      // Without a mark (restarted since) the figure is over the process's life: unknown here.
+      p.cpu_percent = mark == cpu_marks_.end() || wall <= 0 ? std::nan("")
+                                                            : 100.0 * (cpu_s - from.cpu_s) / wall;
+      p.rss_mb = rss / 1e6;
+    }
+    out.push_back(p);
+  }
+  return out;
+}
+
+RangeErrorSummary PipelineSession::errors() const {
+  RangeErrorSummary s;
+  s.frames = frames_;
+  s.ranges = checked_.size();
+  std::vector<double> abs_errors;
+  double relative = 0;
+  std::map<std::string, RangeErrorSummary::PerTarget> per;
+  for (const CheckedRange& c : checked_) {
+    if (!c.truth) continue;
+    abs_errors.push_back(std::abs(c.error_m));
+    relative += std::abs(c.error_m) / c.truth->distance_m;
+    auto& t = per[c.truth->id];
+    t.id = c.truth->id;
+    t.truth_m += c.truth->distance_m;
+    t.mean_error_m += c.error_m;
+    t.mean_sigma_m += c.range.sigma_m();
+    ++t.ranges;
+  }
+  s.matched = abs_errors.size();
+  if (!abs_errors.empty()) {
+    double sum = 0;
+    for (double e : abs_errors) sum += e;
+    s.mean_abs_error_m = sum / static_cast<double>(abs_errors.size());
+    s.mean_abs_relative_error = relative / static_cast<double>(abs_errors.size());
+    s.p95_abs_error_m = supervisor::percentile(abs_errors, 95);
+    s.max_abs_error_m = *std::max_element(abs_errors.begin(), abs_errors.end());
+  }
+  for (auto& [id, t] : per) {
+    const double n = static_cast<double>(t.ranges);
+    t.truth_m /= n;
+    t.mean_error_m /= n;
+    t.mean_sigma_m /= n;
+    s.targets.push_back(t);
+  }
+  std::sort(s.targets.begin(), s.targets.end(),
+            [](const auto& a, const auto& b) { return a.truth_m < b.truth_m; });
+  return s;
+}
+
+std::string range_line(const CheckedRange& c) {
+  const TargetRange& r = c.range;
+  std::ostringstream out;
+  out << "frame " << std::setw(6) << c.seq << "  " << std::setw(8) << r.label().to_string() << " #"
+      << std::setw(2) << std::left << r.target_id() << std::right << "  " << std::setw(7)
+      << fixed(r.distance_m(), 2) << " m +- " << fixed(r.sigma_m(), 2) << "  (" << r.point_count()
+      << " points)";
+  if (c.truth) {
+    out << "  truth " << std::setw(7) << fixed(c.truth->distance_m, 2) << " m (" << c.truth->id
+        << ")  error " << (c.error_m >= 0 ? "+" : "") << fixed(c.error_m, 2) << " m";
+  } else {
+    out << "  truth: no simulated target in this direction";
+  }
+  out << "  latency " << fixed(c.latency_ms, 1) << " ms";
+  return out.str();
+}
+
+std::string range_json(const CheckedRange& c) {
+  const TargetRange& r = c.range;
+  nlohmann::json j{{"frame_seq", c.seq},
+                   {"target_id", r.target_id()},
+                   {"label", r.label().to_string()},
+                   {"distance_m", r.distance_m()},
+                   {"sigma_m", r.sigma_m()},
+                   {"position_m", {r.x_m(), r.y_m(), r.z_m()}},
+                   {"box", {r.box().x(), r.box().y(), r.box().width(), r.box().height()}},
+                   {"point_count", r.point_count()},
+                   {"latency_ms", c.latency_ms}};
+  if (c.truth) {
+    j["truth_id"] = c.truth->id;
+    j["truth_distance_m"] = c.truth->distance_m;
+    j["error_m"] = c.error_m;
+  } else {
+    j["truth_id"] = nullptr;
+  }
+  return j.dump();
+}
+
+std::string errors_text(const RangeErrorSummary& s) {
+  std::ostringstream out;
+  out << "ranges " << s.ranges << " in " << s.frames << " results, " << s.matched
+      << " on a simulated target; |error| mean " << fixed(s.mean_abs_error_m, 3) << " m ("
+      << fixed(100.0 * s.mean_abs_relative_error, 2) << " %), p95 " << fixed(s.p95_abs_error_m, 3)
+      << " m, max " << fixed(s.max_abs_error_m, 3) << " m\n";
+  for (const auto& t : s.targets) {
+    out << "  " << std::setw(10) << t.id << "  truth " << std::setw(6) << fixed(t.truth_m, 2)
+        << " m  ranges " << std::setw(5) << t.ranges << "  mean error "
+        << (t.mean_error_m >= 0 ? "+" : "") << fixed(t.mean_error_m, 3) << " m  mean sigma "
+        << fixed(t.mean_sigma_m, 3) << " m\n";
+  }
+  return out.str();
+}
+
+}  // namespace thermovis::cli

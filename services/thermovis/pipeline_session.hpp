@@ -1,0 +1,111 @@
+#pragma once
+// The whole pipeline on the simulated rig, as `thermovis run` and `thermovis bench pipeline`
+// use it: the supervisor (in this process) starts the services of the manifest on a DDS domain,
+// and every range result is checked against the simulated scene's ground truth.
+#include <CLI/CLI.hpp>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "supervisor.hpp"
+#include "thermovis/sim/simulated_rig.hpp"
+
+namespace thermovis::cli {
+
+struct SessionOptions {
+  std::string scene;     // empty: the shipped paper scene
+  std::string rig;       // empty: the default rig
+  std::string manifest;  // empty: the shipped pipeline.yaml
+  std::string log_dir = "/tmp/thermovis-logs";
+  int domain = 0;
+  std::string profile;  // empty: the shared-memory host profile
+  double latency_deadline_ms = 20.0;
+  int prerender = 0;  // the bridge's pre-rendered captures (0: renders live)
+};
+
+// Adds --scene, --rig, --manifest, --domain (default $THERMOVIS_DOMAIN), --profile, --log-dir,
+// --latency-deadline-ms and --prerender.
+void add_session_options(CLI::App& app, SessionOptions& options);
+
+// One range of the pipeline with the simulated target it belongs to, if any: the target whose
+// centre is nearest to the range's line of sight, within kTruthMatchOffsetM +
+// kTruthMatchOffsetPerM * distance (a detector's box need not be centred on the target).
+struct CheckedRange {
+  std::uint64_t seq = 0;
+  TargetRange range;
+  std::optional<sim::TargetTruth> truth;
+  double error_m = 0.0;     // distance - truth distance (when truth)
+  double latency_ms = 0.0;  // capture to range, from the frame's stamps
+};
+
+struct RangeErrorSummary {
+  std::uint64_t frames = 0;   // range results received
+  std::uint64_t ranges = 0;   // targets ranged
+  std::uint64_t matched = 0;  // of which belong to a simulated target
+  double mean_abs_error_m = 0.0, p95_abs_error_m = 0.0, max_abs_error_m = 0.0;
+  double mean_abs_relative_error = 0.0;  // |error| / truth distance
+  // Per target id: the truth distance and the mean error of its ranges.
+  struct PerTarget {
+    std::string id;
+    double truth_m = 0.0;
+    std::uint64_t ranges = 0;
+    double mean_error_m = 0.0, mean_sigma_m = 0.0;
+  };
+  std::vector<PerTarget> targets;
+};
+
+struct ProcessCpu {
+  std::string service;
+  double cpu_percent = 0.0;  // user + system time over wall time since the last mark, % of a core
+  double rss_mb = 0.0;       // resident memory now
+};
+
+class PipelineSession {
+ public:
+  static constexpr double kTruthMatchOffsetM = 0.8;
+  static constexpr double kTruthMatchOffsetPerM = 0.02;
+
+  explicit PipelineSession(const SessionOptions& options);
+  ~PipelineSession();
+
+  void start();
+  // Polls the services and topics; the ranges received since the last call, checked.
+  std::vector<CheckedRange> step();
+  // Starts the statistics again (after a warm-up): latency, ranging errors, CPU.
+  void reset_statistics();
+  void stop();
+
+  supervisor::LatencySummary latency() const { return supervisor_->summary(); }
+  RangeErrorSummary errors() const;
+  std::vector<ProcessCpu> cpu() const;
+  const std::vector<supervisor::LateFrame>& late_frames() const {
+    return supervisor_->late_frames();
+  }
+  std::vector<process::ServiceStatus> services() const { return supervisor_->services(); }
+  double deadline_ms() const { return options_.latency_deadline_ms; }
+
+ private:
+  std::optional<sim::TargetTruth> truth_for(std::uint64_t seq, const TargetRange& range);
+
+  SessionOptions options_;
+  std::unique_ptr<sim::SimulatedRig> sim_;  // for the truth only
+  std::unique_ptr<transport::Participant> participant_;
+  std::unique_ptr<supervisor::Supervisor> supervisor_;
+  std::uint64_t frames_ = 0;
+  std::vector<CheckedRange> checked_;
+  struct CpuMark {
+    double cpu_s = 0.0;
+    double wall_s = 0.0;
+  };
+  std::map<int, CpuMark> cpu_marks_;  // by pid
+};
+
+// The per-range line `thermovis run` prints, and its JSON form.
+std::string range_line(const CheckedRange& checked);
+std::string range_json(const CheckedRange& checked);
+std::string errors_text(const RangeErrorSummary& errors);
+
+}  // namespace thermovis::cli
