@@ -14,6 +14,9 @@
 namespace thermovis::match_service {
 namespace {
 
+// How long a detection array waits for its frame.
+constexpr std::chrono::milliseconds kFrameWait{40};
+
 // Counts of the region both eyes' searches look at, stretched linearly to 8 bits between the
 // left region's 0.5 and 99.5 percentiles (the same mapping for both eyes).
 void stretch_counts(const cv::Mat& left, const cv::Mat& right, cv::Mat& left8, cv::Mat& right8) {
@@ -153,12 +156,17 @@ void MatchNode::take_frames(BandInput& input) {
 }
 
 const MatchNode::Pair* MatchNode::find(BandInput& input, std::uint64_t seq) {
-  for (int attempt = 0; attempt < 2; ++attempt) {
+  // Detections can arrive before the frame they belong to (the detector needs only the
+  // infrared pair, published first): wait for it a little, never for a frame already passed.
+  const auto until = std::chrono::steady_clock::now() + kFrameWait;
+  while (true) {
     for (const Pair& p : input.pairs)
       if (p.seq == seq) return &p;
-    take_frames(input);  // the frame may be on its way
+    if (!input.pairs.empty() && input.pairs.back().seq > seq) return nullptr;
+    if (std::chrono::steady_clock::now() >= until || node::stop_requested()) return nullptr;
+    input.reader.wait_for_data(std::chrono::milliseconds(2));
+    take_frames(input);
   }
-  return nullptr;
 }
 
 void MatchNode::run() {

@@ -117,23 +117,27 @@ void RectifyFuseNode::process(const VisibleStereoFrame& visible,
   auto out_visible = rectified_visible_out_.loan();
   auto out_infrared = rectified_infrared_out_.loan();
   auto out_fused = fused_out_.loan();
-  // The rectified pairs first: detection and matching work on them, so they are published
-  // before the fusion (which only the display and fused-band matching need) is computed.
+  // The rectified pairs first, infrared before visible: detection works on the infrared alone
+  // and starts while the visible pair is rectified; matching needs both. The fusion, which only
+  // the display and fused-band matching need, comes last.
   std::array<cv::Mat, 2> rect_visible, rect_infrared;
   for (const Eye eye : {Eye::left, Eye::right}) {
     const int i = eye == Eye::left ? 0 : 1;
     // view() checks the headers; the remappers check the sizes against the rig's cameras.
-    rect_visible[i] = node::prepare(*out_visible, eye, grid_size_, CV_8UC3);
-    visible_maps_[i]->remap(node::view(visible, eye), rect_visible[i]);
     // The rectified infrared keeps its raw counts (detection thresholds on temperature, not on
     // equalised grey levels); the gain-controlled image goes into the fusion.
     rect_infrared[i] = node::prepare(*out_infrared, eye, grid_size_, CV_16UC1);
     infrared_maps_[i]->remap(node::view(infrared, eye), rect_infrared[i]);
   }
-  copy_header(visible, *out_visible, start_ns);
   copy_header(visible, *out_infrared, start_ns);
-  rectified_visible_out_.publish(std::move(out_visible));
   rectified_infrared_out_.publish(std::move(out_infrared));
+  for (const Eye eye : {Eye::left, Eye::right}) {
+    const int i = eye == Eye::left ? 0 : 1;
+    rect_visible[i] = node::prepare(*out_visible, eye, grid_size_, CV_8UC3);
+    visible_maps_[i]->remap(node::view(visible, eye), rect_visible[i]);
+  }
+  copy_header(visible, *out_visible, start_ns);
+  rectified_visible_out_.publish(std::move(out_visible));
   // Reading the published samples stays safe: this writer reuses a pool slot only at its next
   // loan, which comes with the next capture.
   const std::int64_t fusion_start_ns = transport::now_ns();

@@ -2,11 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iostream>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "thermovis/runtime/rig_io.hpp"
 #include "thermovis/transport/qos.hpp"
+#include "thermovis/transport/shared_memory.hpp"
 #include "thermovis/transport/topics.hpp"
 
 namespace thermovis::supervisor {
@@ -55,6 +57,13 @@ Supervisor::Supervisor(transport::Participant& participant, process::Manifest ma
 Supervisor::~Supervisor() { stop(); }
 
 void Supervisor::start() {
+  // Pools left in /dev/shm by services killed in an earlier run would fill the tmpfs.
+  const auto stale = transport::remove_stale_data_sharing_segments();
+  stale_segments_removed_ = stale.count;
+  if (stale.count > 0) {
+    std::cerr << "thermovis-supervisor: removed " << stale.count << " stale data-sharing segments ("
+              << stale.bytes / 1000000 << " MB) from /dev/shm\n";
+  }
   started_ = Clock::now();
   group_.start_all();
 }

@@ -74,6 +74,8 @@ class Supervisor {
   std::vector<process::ServiceStatus> services() const { return group_.status(); }
   const std::map<std::string, Health>& health() const { return health_; }
   const std::vector<LateFrame>& late_frames() const { return late_; }
+  // Data-sharing segments of dead processes removed from /dev/shm at start().
+  std::size_t stale_segments_removed() const { return stale_segments_removed_; }
 
  private:
   void take_timing();
@@ -92,6 +94,7 @@ class Supervisor {
   std::map<Stage, std::vector<double>> stage_ms_;
   std::vector<LateFrame> late_;
   std::uint64_t first_seq_ = 0, last_seq_ = 0;
+  std::size_t stale_segments_removed_ = 0;
   // Cumulative counts at the last reset_statistics().
   std::uint64_t base_bad_inputs_ = 0, base_deadline_misses_ = 0, base_restarts_ = 0;
 };

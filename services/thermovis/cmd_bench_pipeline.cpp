@@ -82,6 +82,9 @@ THERMOVIS_COMMAND("bench pipeline",
                   "all services at 50 Hz: latency p50/p99/max per stage, CPU, drops, misses",
                   [](CLI::App& app) -> thermovis::cli::Runner {
                     auto opt = std::make_shared<Options>();
+                    // The simulated bridge copies pre-rendered captures: the benchmark measures
+                    // the pipeline, not the simulator (bench_sim measures that).
+                    opt->session.prerender = 100;
                     thermovis::cli::add_session_options(app, opt->session);
                     app.add_option("--seconds", opt->seconds, "measured time")
                         ->capture_default_str()

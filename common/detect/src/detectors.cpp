@@ -23,14 +23,15 @@ std::vector<Detection> detect_warm_blobs(const cv::Mat& infrared,
   if (infrared.size() != grid.image_size()) {
     throw std::invalid_argument("detect_warm_blobs: image size differs from the grid's");
   }
-  cv::Mat values;
-  infrared.convertTo(values, CV_32F);
   // Background statistics over the pixels inside the field (value > 0), on a subsample.
   std::vector<float> samples;
-  for (int y = 0; y < values.rows; y += 4) {
-    const float* row = values.ptr<float>(y);
-    for (int x = 0; x < values.cols; x += 4)
-      if (row[x] > 0) samples.push_back(row[x]);
+  samples.reserve(static_cast<std::size_t>(infrared.total() / 16 + 1));
+  for (int y = 0; y < infrared.rows; y += 4) {
+    for (int x = 0; x < infrared.cols; x += 4) {
+      const float v = infrared.depth() == CV_16U ? infrared.at<std::uint16_t>(y, x)
+                                                 : infrared.at<std::uint8_t>(y, x);
+      if (v > 0) samples.push_back(v);
+    }
   }
   if (samples.size() < 16) return {};
   auto median_of = [](std::vector<float> v) {
@@ -42,7 +43,11 @@ std::vector<Detection> detect_warm_blobs(const cv::Mat& infrared,
   for (float& v : samples) v = std::abs(v - static_cast<float>(median));
   const double sigma = 1.4826 * median_of(samples);
   const double threshold = median + std::max(o.k_sigma * sigma, o.min_excess_counts);
-  cv::Mat mask = values > threshold;
+  // Compared in the image's own type (no float copy of the frame): above the threshold means
+  // above its integer part.
+  cv::Mat mask;
+  cv::compare(infrared, cv::Scalar(std::floor(threshold)), mask, cv::CMP_GT);
+  const cv::Mat& values = infrared;
   cv::morphologyEx(mask, mask, cv::MORPH_CLOSE, cv::getStructuringElement(cv::MORPH_RECT, {3, 5}));
   cv::Mat labels, stats, centroids;
   const int n = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);

@@ -2,7 +2,9 @@
 // Where a pointer lives: the file mapping of this process (from /proc/self/maps) that contains
 // it. Used to check that a sample really sits in a data-sharing segment shared with another
 // process (zero-copy) rather than in private heap memory.
+#include <chrono>
 #include <cstdint>
+#include <filesystem>
 #include <optional>
 #include <string>
 #include <vector>
@@ -27,5 +29,17 @@ bool is_data_sharing_segment(const std::string& path);
 // The data-sharing segments this process has mapped (its writers' pools, its readers'
 // notification segments and the pools of the writers they read), each once.
 std::vector<std::string> mapped_data_sharing_segments();
+
+struct StaleSegments {
+  std::size_t count = 0;    // segments removed
+  std::uint64_t bytes = 0;  // their size
+};
+
+// Removes the data-sharing segments that no live process maps any more (a writer killed with
+// SIGKILL leaves its whole pool, ~62 MB for a visible frame topic, in /dev/shm), older than
+// `min_age` (a segment just created is mapped a moment later). Scans /proc/*/maps.
+StaleSegments remove_stale_data_sharing_segments(
+    std::chrono::seconds min_age = std::chrono::seconds(10),
+    const std::filesystem::path& shm_dir = "/dev/shm");
 
 }  // namespace thermovis::transport

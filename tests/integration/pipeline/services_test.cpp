@@ -1,0 +1,377 @@
+// Each service as its own process on a private DDS domain, driven by this test as the DDS
+// application on the other side: bad input on the topics it reads is reported (log and health)
+// and the next good sample is still served; a configuration naming a missing file is a clear
+// error; SIGTERM stops every service with exit code 0.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <map>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+#include <random>
+#include <thread>
+
+#include "thermovis/node/frame_codec.hpp"
+#include "thermovis/node/pipeline_grid.hpp"
+#include "thermovis/range/ranging.hpp"
+#include "thermovis/runtime/rig_io.hpp"
+#include "thermovis/test/child_process.hpp"
+#include "thermovis/test/data.hpp"
+#include "thermovis/transport/participant.hpp"
+#include "thermovis/transport/qos.hpp"
+#include "thermovis/transport/reader.hpp"
+#include "thermovis/transport/topics.hpp"
+#include "thermovis/transport/writer.hpp"
+
+namespace {
+
+using namespace std::chrono_literals;
+using thermovis::test::ChildProcess;
+namespace tv = thermovis;
+namespace topics = tv::transport::topics;
+
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+
+// Each test its own domain (this binary: 90..179; the pipeline test uses 20..79).
+int private_domain(int test) { return 90 + static_cast<int>((::getpid() % 30) * 3 + test) % 90; }
+
+class Harness {
+ public:
+  explicit Harness(int domain) : domain_(domain), dir_(tv::test::temp_dir("services")) {
+    tv::transport::ParticipantConfig pc;
+    pc.domain_id = domain;
+    pc.profile = tv::transport::kLoopbackProfile;
+    pc.profiles_file = tv::transport::shipped_profile_file(pc.profile);
+    pc.name = "services-test";
+    participant_ = std::make_unique<tv::transport::Participant>(pc);
+    health_ = std::make_unique<tv::transport::Reader<tv::Health>>(*participant_, topics::kHealth,
+                                                                  tv::transport::state_topic_qos());
+  }
+  ~Harness() {
+    processes_.clear();
+    std::filesystem::remove_all(dir_);
+  }
+
+  ChildProcess& start(const std::string& executable, std::vector<std::string> extra = {}) {
+    std::vector<std::string> argv{(tv::test::bin_dir() / executable).string(), "--domain",
+                                  std::to_string(domain_), "--profile",
+                                  tv::transport::kLoopbackProfile};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    processes_.push_back(std::make_unique<ChildProcess>(argv, dir_ / (executable + ".log")));
+    return *processes_.back();
+  }
+
+  // Waits until the service's health satisfies `ok`; the last health seen.
+  std::optional<tv::Health> wait_health(const std::string& service,
+                                        const std::function<bool(const tv::Health&)>& ok,
+                                        std::chrono::seconds timeout) {
+    const auto until = std::chrono::steady_clock::now() + timeout;
+    while (std::chrono::steady_clock::now() < until) {
+      health_->wait_for_data(100ms);
+      auto samples = health_->take();
+      for (std::size_t i = 0; i < samples.size(); ++i)
+        last_[samples[i].service().to_string()] = samples[i];
+      const auto it = last_.find(service);
+      if (it != last_.end() && ok(it->second)) return it->second;
+    }
+    const auto it = last_.find(service);
+    return it == last_.end() ? std::nullopt : std::optional<tv::Health>(it->second);
+  }
+
+  tv::transport::Participant& participant() { return *participant_; }
+  const std::filesystem::path& dir() const { return dir_; }
+
+ private:
+  int domain_;
+  std::filesystem::path dir_;
+  std::unique_ptr<tv::transport::Participant> participant_;
+  std::unique_ptr<tv::transport::Reader<tv::Health>> health_;
+  std::map<std::string, tv::Health> last_;
+  std::vector<std::unique_ptr<ChildProcess>> processes_;
+};
+
+tv::Box2D box2d(float x, float y, float width, float height) {
+  tv::Box2D box;
+  box.x(x);
+  box.y(y);
+  box.width(width);
+  box.height(height);
+  return box;
+}
+
+bool running(const tv::Health& h) {
+  return h.state() == tv::HEALTH_STARTING || h.state() == tv::HEALTH_OK;
+}
+bool waiting_for_input(const tv::Health& h) {
+  return h.message().to_string().find("waiting") != std::string::npos;
+}
+
+// Waits for the first sample of `reader` satisfying `ok` (which copies what it needs: frame
+// types are megabytes, not for the stack); false on timeout.
+template <class T>
+bool receive(tv::transport::Reader<T>& reader, const std::function<bool(const T&)>& ok,
+             std::chrono::seconds timeout) {
+  const auto until = std::chrono::steady_clock::now() + timeout;
+  while (std::chrono::steady_clock::now() < until) {
+    reader.wait_for_data(100ms);
+    auto samples = reader.take();
+    for (std::size_t i = 0; i < samples.size(); ++i)
+      if (ok(samples[i])) return true;
+  }
+  return false;
+}
+
+tv::rectify::StereoGeometry pipeline_geometry() {
+  return tv::node::pipeline_geometry(tv::runtime::load_rig(tv::runtime::default_rig_path()),
+                                     tv::node::GridOptions{});
+}
+
+TEST(Services, RangeReportsABadMatchArrayAndServesTheNextGoodOne) {
+  Harness h(private_domain(0));
+  ChildProcess& range = h.start("thermovis-range");
+  tv::transport::Writer<tv::MatchArray> matches(h.participant(), topics::kMatches,
+                                                tv::transport::event_topic_qos());
+  tv::transport::Reader<tv::RangeArray> ranges(h.participant(), topics::kRanges,
+                                               tv::transport::event_topic_qos());
+  ASSERT_TRUE(h.wait_health("thermovis-range", waiting_for_input, 60s)) << range.log();
+  ASSERT_TRUE(matches.wait_for_readers(1, 10000ms));
+  ASSERT_TRUE(ranges.wait_for_writers(1, 10000ms));
+
+  // A target whose box has a NaN corner.
+  tv::MatchArray bad;
+  bad.frame_seq(1);
+  tv::TargetMatch broken;
+  broken.label("person");
+  broken.box(box2d(kNaN, 10.f, 20.f, 40.f));
+  bad.targets().push_back(broken);
+  matches.write(bad);
+  const auto reported = h.wait_health(
+      "thermovis-range", [](const tv::Health& x) { return x.errors() >= 1; }, 30s);
+  ASSERT_TRUE(reported) << range.log();
+  EXPECT_EQ(reported->state(), tv::HEALTH_DEGRADED);
+  EXPECT_NE(reported->message().to_string().find("non-finite"), std::string::npos)
+      << reported->message().to_string();
+
+  // Then a good one: points of a target 12 m ahead, as the matcher would send them.
+  const auto geometry = pipeline_geometry();
+  tv::MatchArray good;
+  good.frame_seq(2);
+  tv::TargetMatch target;
+  target.target_id(7);
+  target.label("marker");  // no surface-to-centre offset beyond 0.033 m
+  Eigen::Vector2d centre;
+  double disparity = 0;
+  ASSERT_TRUE(tv::range::project_point(geometry.grid, geometry.baseline_m, {0.3, 0.2, 12.0}, centre,
+                                       disparity));
+  target.box(
+      box2d(static_cast<float>(centre.x() - 10), static_cast<float>(centre.y() - 10), 20.f, 20.f));
+  for (int dy = -6; dy <= 6; dy += 3) {
+    for (int dx = -6; dx <= 6; dx += 3) {
+      const Eigen::Vector3d p(0.3 + dx * 0.01, 0.2 + dy * 0.01, 12.0);
+      Eigen::Vector2d px;
+      double d = 0;
+      ASSERT_TRUE(tv::range::project_point(geometry.grid, geometry.baseline_m, p, px, d));
+      tv::PointMatch m;
+      m.left_x(static_cast<float>(px.x()));
+      m.left_y(static_cast<float>(px.y()));
+      m.right_x(static_cast<float>(px.x() - d));
+      m.right_y(static_cast<float>(px.y()));
+      target.points().push_back(m);
+    }
+  }
+  good.targets().push_back(target);
+  matches.write(good);
+  std::optional<tv::RangeArray> answer;
+  ASSERT_TRUE(receive<tv::RangeArray>(
+      ranges,
+      [&](const tv::RangeArray& a) {
+        if (a.frame_seq() == 2) answer = a;
+        return answer.has_value();
+      },
+      30s))
+      << range.log();
+  ASSERT_EQ(answer->targets().size(), 1u);
+  const tv::TargetRange& r = answer->targets()[0];
+  EXPECT_EQ(r.target_id(), 7u);
+  const double truth = std::sqrt(0.3 * 0.3 + 0.2 * 0.2 + 12.0 * 12.0) + 0.033;
+  EXPECT_NEAR(r.distance_m(), truth, 0.05);
+  // The position is in the left visible camera's frame: its length is the distance.
+  EXPECT_NEAR(std::hypot(r.x_m(), r.y_m(), r.z_m()), r.distance_m(), 0.01);
+  EXPECT_GT(r.sigma_m(), 0.f);
+
+  range.signal(SIGTERM);
+  EXPECT_EQ(range.wait(20s), 0) << range.log();
+  EXPECT_NE(range.log().find("non-finite"), std::string::npos) << "the log names the problem";
+}
+
+// A textured stereo pair on the pipeline grid whose right eye is the left shifted by `shift`
+// columns (a fronto-parallel scene at one disparity).
+void fill_textured_pair(tv::GridStereoFrame& frame, cv::Size grid, int shift, std::uint64_t seq) {
+  cv::Mat left = tv::node::prepare(frame, tv::node::Eye::left, grid, CV_8UC3);
+  cv::Mat right = tv::node::prepare(frame, tv::node::Eye::right, grid, CV_8UC3);
+  cv::Mat noise(grid, CV_8UC1);
+  cv::RNG rng(42);
+  rng.fill(noise, cv::RNG::UNIFORM, 0, 256);
+  cv::Mat blurred;
+  cv::GaussianBlur(noise, blurred, cv::Size(5, 5), 1.2);
+  cv::Mat shifted = cv::Mat::zeros(grid, CV_8UC1);
+  blurred.colRange(shift, grid.width).copyTo(shifted.colRange(0, grid.width - shift));
+  cv::cvtColor(blurred, left, cv::COLOR_GRAY2BGR);
+  cv::cvtColor(shifted, right, cv::COLOR_GRAY2BGR);
+  frame.seq(seq);
+  frame.capture_time_ns(1'000'000'000LL * static_cast<std::int64_t>(seq));
+  frame.stamps(tv::PipelineStamps{});
+}
+
+TEST(Services, MatchReportsABadDetectionAndServesTheNextGoodOne) {
+  Harness h(private_domain(1));
+  ChildProcess& match = h.start("thermovis-match", {"--band", "fused"});
+  tv::transport::Writer<tv::GridStereoFrame> fused(h.participant(), topics::kFused,
+                                                   tv::transport::frame_topic_qos());
+  tv::transport::Writer<tv::DetectionArray> detections(h.participant(), topics::kDetections,
+                                                       tv::transport::event_topic_qos());
+  tv::transport::Reader<tv::MatchArray> matches(h.participant(), topics::kMatches,
+                                                tv::transport::event_topic_qos());
+  ASSERT_TRUE(h.wait_health("thermovis-match", waiting_for_input, 60s)) << match.log();
+  ASSERT_TRUE(fused.wait_for_readers(1, 10000ms));
+  ASSERT_TRUE(detections.wait_for_readers(1, 10000ms));
+  ASSERT_TRUE(matches.wait_for_writers(1, 10000ms));
+
+  const cv::Size grid = pipeline_geometry().grid.image_size();
+  const int shift = 9;
+  for (std::uint64_t seq : {5u, 6u}) {
+    auto loan = fused.loan();
+    fill_textured_pair(*loan, grid, shift, seq);
+    fused.publish(std::move(loan));
+    std::this_thread::sleep_for(50ms);
+  }
+  auto detection_array = [](std::uint64_t seq, tv::Box2D box) {
+    tv::DetectionArray a;
+    a.frame_seq(seq);
+    tv::Detection d;
+    d.target_id(3);
+    d.label("person");
+    d.score(0.9f);
+    d.box(box);
+    a.detections().push_back(d);
+    return a;
+  };
+  detections.write(detection_array(5, box2d(100.f, 100.f, kNaN, 50.f)));
+  const auto reported = h.wait_health(
+      "thermovis-match", [](const tv::Health& x) { return x.errors() >= 1; }, 30s);
+  ASSERT_TRUE(reported) << match.log();
+  EXPECT_NE(reported->message().to_string().find("non-finite"), std::string::npos)
+      << reported->message().to_string();
+
+  detections.write(detection_array(6, box2d(400.f, 200.f, 40.f, 60.f)));
+  std::optional<tv::MatchArray> answer;
+  ASSERT_TRUE(receive<tv::MatchArray>(
+      matches,
+      [&](const tv::MatchArray& a) {
+        if (a.frame_seq() == 6) answer = a;
+        return answer.has_value();
+      },
+      30s))
+      << match.log();
+  ASSERT_EQ(answer->targets().size(), 1u);
+  const auto& points = answer->targets()[0].points();
+  ASSERT_GE(points.size(), 10u);
+  for (const tv::PointMatch& p : points) {
+    EXPECT_NEAR(p.left_x() - p.right_x(), shift, 0.2);
+    EXPECT_NEAR(p.left_y(), p.right_y(), 0.5);
+  }
+  match.signal(SIGTERM);
+  EXPECT_EQ(match.wait(20s), 0) << match.log();
+}
+
+TEST(Services, RectifyFuseReportsAWrongSizedFrameAndServesTheNextGoodOne) {
+  Harness h(private_domain(2));
+  ChildProcess& rf = h.start("thermovis-rectify-fuse");
+  tv::transport::Writer<tv::VisibleStereoFrame> visible(h.participant(), topics::kVisibleFrames,
+                                                        tv::transport::frame_topic_qos());
+  tv::transport::Writer<tv::InfraredStereoFrame> infrared(h.participant(), topics::kInfraredFrames,
+                                                          tv::transport::frame_topic_qos());
+  tv::transport::Reader<tv::GridStereoFrame> fused(h.participant(), topics::kFused,
+                                                   tv::transport::frame_topic_qos());
+  ASSERT_TRUE(h.wait_health("thermovis-rectify-fuse", waiting_for_input, 120s)) << rf.log();
+  ASSERT_TRUE(visible.wait_for_readers(1, 10000ms));
+  ASSERT_TRUE(infrared.wait_for_readers(1, 10000ms));
+  ASSERT_TRUE(fused.wait_for_writers(1, 10000ms));
+
+  auto publish = [&](std::uint64_t seq, cv::Size visible_size) {
+    auto ir = infrared.loan();
+    cv::Mat il = tv::node::prepare(*ir, tv::node::Eye::left, {1024, 768});
+    cv::Mat ir_right = tv::node::prepare(*ir, tv::node::Eye::right, {1024, 768});
+    il.setTo(8000);
+    ir_right.setTo(8000);
+    ir->seq(seq);
+    ir->capture_time_ns(0);
+    ir->stamps(tv::PipelineStamps{});
+    auto vis = visible.loan();
+    // The header says what the test wants; the pixels of a wrong size are never read.
+    const cv::Size fits(std::min(visible_size.width, 1920), std::min(visible_size.height, 1080));
+    tv::node::prepare(*vis, tv::node::Eye::left, fits).setTo(cv::Scalar(90, 100, 110));
+    tv::node::prepare(*vis, tv::node::Eye::right, fits).setTo(cv::Scalar(90, 100, 110));
+    vis->width(static_cast<std::uint32_t>(visible_size.width));
+    vis->height(static_cast<std::uint32_t>(visible_size.height));
+    vis->seq(seq);
+    vis->capture_time_ns(0);
+    vis->stamps(tv::PipelineStamps{});
+    infrared.publish(std::move(ir));
+    visible.publish(std::move(vis));
+  };
+  publish(1, {4000, 1080});  // does not fit the frame type
+  const auto reported = h.wait_health(
+      "thermovis-rectify-fuse", [](const tv::Health& x) { return x.errors() >= 1; }, 30s);
+  ASSERT_TRUE(reported) << rf.log();
+  EXPECT_NE(reported->message().to_string().find("4000x1080"), std::string::npos)
+      << reported->message().to_string();
+  publish(2, {1920, 1080});
+  cv::Size fused_size;
+  ASSERT_TRUE(receive<tv::GridStereoFrame>(
+      fused,
+      [&](const tv::GridStereoFrame& f) {
+        fused_size = cv::Size(static_cast<int>(f.width()), static_cast<int>(f.height()));
+        return f.seq() == 2;
+      },
+      30s))
+      << rf.log();
+  EXPECT_EQ(fused_size, pipeline_geometry().grid.image_size());
+  rf.signal(SIGTERM);
+  EXPECT_EQ(rf.wait(20s), 0) << rf.log();
+}
+
+TEST(Services, AConfigurationNamingAMissingFileIsAClearError) {
+  Harness h(private_domain(3));
+  for (const char* service : {"thermovis-detect", "thermovis-match", "thermovis-range"}) {
+    ChildProcess& p = h.start(service, {"--rig", "/nonexistent/thermovis/rig.yaml"});
+    EXPECT_EQ(p.wait(30s), 1) << service;
+    EXPECT_NE(p.log().find("/nonexistent/thermovis/rig.yaml"), std::string::npos)
+        << service << ":\n"
+        << p.log();
+  }
+}
+
+TEST(Services, EveryServiceStopsCleanlyOnSigterm) {
+  Harness h(private_domain(4));
+  std::map<std::string, ChildProcess*> services;
+  services["thermovis-bridge"] = &h.start("thermovis-bridge", {"--source", "sim"});
+  for (const char* name :
+       {"thermovis-rectify-fuse", "thermovis-detect", "thermovis-match", "thermovis-range"}) {
+    services[name] = &h.start(name);
+  }
+  for (const auto& [name, process] : services) {
+    ASSERT_TRUE(h.wait_health(name, running, 120s)) << name << ":\n" << process->log();
+  }
+  // Let frames flow for a moment, so the services stop in the middle of their work.
+  std::this_thread::sleep_for(2s);
+  for (const auto& [name, process] : services) process->signal(SIGTERM);
+  for (const auto& [name, process] : services) {
+    EXPECT_EQ(process->wait(30s), 0) << name << ":\n" << process->log();
+  }
+}
+
+}  // namespace
