@@ -19,7 +19,7 @@ namespace {
 
 struct Options {
   thermovis::node::CommonOptions common;
-  double wait_s = 2.0;
+  double wait_s = 3.0;  // discovery of every service on a busy host
   bool json = false;
 };
 

@@ -1,7 +1,13 @@
 #include "thermovis/test/data.hpp"
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
 #include <cstdlib>
 #include <random>
+#include <stdexcept>
+#include <string>
 
 namespace thermovis::test {
 
@@ -38,6 +44,25 @@ std::filesystem::path temp_dir(const std::string& name) {
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir;
+}
+
+int private_domain() {
+  static const int domain = [] {
+    constexpr int kFirst = 20, kCount = 213;  // domains 20..232
+    const int start = static_cast<int>(::getpid() % kCount);
+    for (int i = 0; i < kCount; ++i) {
+      const int d = kFirst + (start + i) % kCount;
+      const std::string lock = (std::filesystem::temp_directory_path() /
+                                ("thermovis-test-domain-" + std::to_string(d) + ".lock"))
+                                   .string();
+      const int fd = ::open(lock.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0666);
+      if (fd < 0) continue;
+      if (::flock(fd, LOCK_EX | LOCK_NB) == 0) return d;  // fd stays open: the lock is held
+      ::close(fd);
+    }
+    throw std::runtime_error("no free DDS domain for this test: all 213 are held");
+  }();
+  return domain;
 }
 
 }  // namespace thermovis::test

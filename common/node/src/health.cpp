@@ -44,6 +44,7 @@ void HealthReporter::frame_processed() {
     ++good_since_error_;
     if (state_ == HEALTH_STARTING) {
       state_ = HEALTH_OK;
+      message_ = "processing";  // the start-up message ("waiting for ...") no longer holds
       recovered = true;
     } else if (state_ == HEALTH_DEGRADED && good_since_error_ >= kRecoverAfterFrames) {
       state_ = HEALTH_OK;

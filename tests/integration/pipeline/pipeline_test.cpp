@@ -31,8 +31,7 @@ using namespace std::chrono_literals;
 using thermovis::test::ChildProcess;
 namespace tv = thermovis;
 
-// A domain of its own for this test binary (other test binaries use other ranges).
-int private_domain() { return 20 + static_cast<int>(::getpid() % 60); }
+using thermovis::test::private_domain;
 
 // Distance of `point` from the line of sight through `direction` (infinite when behind).
 double off_axis_m(const Eigen::Vector3d& direction, const Eigen::Vector3d& point) {

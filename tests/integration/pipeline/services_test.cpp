@@ -35,9 +35,6 @@ namespace topics = tv::transport::topics;
 
 constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 
-// Each test its own domain (this binary: 90..179; the pipeline test uses 20..79).
-int private_domain(int test) { return 90 + static_cast<int>((::getpid() % 30) * 3 + test) % 90; }
-
 class Harness {
  public:
   explicit Harness(int domain) : domain_(domain), dir_(tv::test::temp_dir("services")) {
@@ -130,7 +127,7 @@ tv::rectify::StereoGeometry pipeline_geometry() {
 }
 
 TEST(Services, RangeReportsABadMatchArrayAndServesTheNextGoodOne) {
-  Harness h(private_domain(0));
+  Harness h(tv::test::private_domain());
   ChildProcess& range = h.start("thermovis-range");
   tv::transport::Writer<tv::MatchArray> matches(h.participant(), topics::kMatches,
                                                 tv::transport::event_topic_qos());
@@ -227,7 +224,7 @@ void fill_textured_pair(tv::GridStereoFrame& frame, cv::Size grid, int shift, st
 }
 
 TEST(Services, MatchReportsABadDetectionAndServesTheNextGoodOne) {
-  Harness h(private_domain(1));
+  Harness h(tv::test::private_domain());
   ChildProcess& match = h.start("thermovis-match", {"--band", "fused"});
   tv::transport::Writer<tv::GridStereoFrame> fused(h.participant(), topics::kFused,
                                                    tv::transport::frame_topic_qos());
@@ -288,7 +285,7 @@ TEST(Services, MatchReportsABadDetectionAndServesTheNextGoodOne) {
 }
 
 TEST(Services, RectifyFuseReportsAWrongSizedFrameAndServesTheNextGoodOne) {
-  Harness h(private_domain(2));
+  Harness h(tv::test::private_domain());
   ChildProcess& rf = h.start("thermovis-rectify-fuse");
   tv::transport::Writer<tv::VisibleStereoFrame> visible(h.participant(), topics::kVisibleFrames,
                                                         tv::transport::frame_topic_qos());
@@ -345,7 +342,7 @@ TEST(Services, RectifyFuseReportsAWrongSizedFrameAndServesTheNextGoodOne) {
 }
 
 TEST(Services, AConfigurationNamingAMissingFileIsAClearError) {
-  Harness h(private_domain(3));
+  Harness h(tv::test::private_domain());
   for (const char* service : {"thermovis-detect", "thermovis-match", "thermovis-range"}) {
     ChildProcess& p = h.start(service, {"--rig", "/nonexistent/thermovis/rig.yaml"});
     EXPECT_EQ(p.wait(30s), 1) << service;
@@ -356,7 +353,7 @@ TEST(Services, AConfigurationNamingAMissingFileIsAClearError) {
 }
 
 TEST(Services, EveryServiceStopsCleanlyOnSigterm) {
-  Harness h(private_domain(4));
+  Harness h(tv::test::private_domain());
   std::map<std::string, ChildProcess*> services;
   services["thermovis-bridge"] = &h.start("thermovis-bridge", {"--source", "sim"});
   for (const char* name :
@@ -366,10 +363,13 @@ TEST(Services, EveryServiceStopsCleanlyOnSigterm) {
   for (const auto& [name, process] : services) {
     ASSERT_TRUE(h.wait_health(name, running, 120s)) << name << ":\n" << process->log();
   }
-  // Let frames flow for a moment, so the services stop in the middle of their work.
+  // Let frames flow for a moment, so the services stop in the middle of their work; then stop
+  // them downstream first, as the supervisor does (deploy/pipeline.yaml says why).
   std::this_thread::sleep_for(2s);
-  for (const auto& [name, process] : services) process->signal(SIGTERM);
-  for (const auto& [name, process] : services) {
+  for (const char* name : {"thermovis-range", "thermovis-match", "thermovis-detect",
+                           "thermovis-rectify-fuse", "thermovis-bridge"}) {
+    ChildProcess* process = services.at(name);
+    process->signal(SIGTERM);
     EXPECT_EQ(process->wait(30s), 0) << name << ":\n" << process->log();
   }
 }

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <map>
 
+#include "thermovis/test/data.hpp"
 #include "thermovis/transport/participant.hpp"
 #include "thermovis/transport/reader.hpp"
 #include "thermovis/transport/topics.hpp"
@@ -18,7 +19,7 @@ namespace tt = thermovis::transport;
 using namespace std::chrono_literals;
 
 tt::ParticipantConfig loopback(const std::string& name) {
-  return {100 + static_cast<int>(::getpid() % 100), {}, tt::kLoopbackProfile, name};
+  return {thermovis::test::private_domain(), {}, tt::kLoopbackProfile, name};
 }
 
 thermovis::Health health(const std::string& service, thermovis::HealthState state,

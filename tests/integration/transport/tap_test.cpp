@@ -12,8 +12,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "thermovis/test/child_process.hpp"
 #include "range_pattern.hpp"
+#include "thermovis/test/child_process.hpp"
 #include "thermovis/test/data.hpp"
 
 namespace {
@@ -21,7 +21,7 @@ namespace {
 using namespace std::chrono_literals;
 using thermovis::test::ChildProcess;
 
-int private_domain() { return 100 + static_cast<int>(::getpid() % 100); }
+using thermovis::test::private_domain;
 
 TEST(ThermovisTap, RecordsRangesFromFastDdsWriter) {
   const auto dir = thermovis::test::temp_dir("tap");

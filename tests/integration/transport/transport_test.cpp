@@ -21,7 +21,7 @@ using namespace std::chrono_literals;
 
 // A domain no other test process uses at the same time: ctest runs each case in its own
 // process, so the pid tells them apart (domains 100..199, well inside the UDP port range).
-int private_domain() { return 100 + static_cast<int>(::getpid() % 100); }
+using thermovis::test::private_domain;
 
 struct FrameRun {
   nlohmann::json publisher, subscriber;

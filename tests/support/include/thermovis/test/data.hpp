@@ -21,6 +21,11 @@ std::filesystem::path bin_dir();
 // A fresh, empty temporary folder for one test, removed by the caller or at exit of the test.
 std::filesystem::path temp_dir(const std::string& name);
 
+// A DDS domain id no other test process on this machine holds: the first of 20..232 (starting at
+// a pid-dependent place) whose lock file in the temp folder this process can lock. The lock is
+// held until the process exits, so tests running in parallel never share a domain.
+int private_domain();
+
 }  // namespace thermovis::test
 
 // Skips the current test with a message when a data folder is missing, so the project still
