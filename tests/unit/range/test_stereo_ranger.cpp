@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <map>
+#include <string>
 
 #include "thermovis/range/stereo_ranger.hpp"
 #include "thermovis/runtime/rig_io.hpp"
@@ -18,31 +20,44 @@ TEST(StereoRanger, SimulatedPeopleWithinTwoPercentTo30m) {
       thermovis::runtime::load_scene(thermovis::runtime::shipped_scene_path("paper"));
   const sim::SimulatedRig simulated(rig, scene, 3);
   sim::FrameSet frames = simulated.allocate();
-  simulated.render(0, frames);
   const rg::StereoRanger ranger(rig);
-  const rg::RectifiedFrames rectified =
-      ranger.rectify({frames[sim::Slot::visible_left], frames[sim::Slot::visible_right],
-                      frames[sim::Slot::infrared_left], frames[sim::Slot::infrared_right]});
   rg::RangerOptions options;
   options.centre_offset_m = rg::surface_to_centre_m("person");
-  int ranged = 0;
-  for (const auto& t : simulated.truth(0)) {
-    if (t.cls != sim::TargetClass::person || t.distance_m > 31) continue;
-    const auto& b = t.boxes[static_cast<size_t>(sim::Slot::visible_left)];
-    ASSERT_TRUE(b.has_value()) << t.id;
-    const cv::Rect box =
-        ranger.raw_box_to_rectified(rg::Mode::visible, b->x_min, b->y_min, b->x_max, b->y_max);
-    const rg::RangedTarget r = ranger.range(rectified, rg::Mode::visible, box, options);
-    ASSERT_EQ(r.range.status, rg::RangeStatus::ok) << t.id << ": " << r.range.message;
-    std::cout << t.id << ": " << r.range.distance_m << " m (truth " << t.distance_m << ", sigma "
-              << r.range.sigma_m << ", " << r.range.points_used << " points)\n";
-    // Measured (seed 3): errors 0.01-0.36 m from 5 to 30 m.
-    EXPECT_LT(std::abs(r.range.distance_m - t.distance_m), 0.02 * t.distance_m + 0.1) << t.id;
-    // The position is the distance along the target's direction (rig frame).
-    EXPECT_NEAR(r.range.position_m.norm(), r.range.distance_m, 1e-6);
-    ++ranged;
+  // Four frames of the static scene (independent noise): a distant person's few correspondences
+  // can fall below Eq. 34's minimum in one frame, so each person must be ranged in at least two
+  // of them, and every range given must be within 2 % + 0.1 m.
+  constexpr int kFrames = 4;
+  std::map<std::string, int> ranged_frames;
+  for (int frame = 0; frame < kFrames; ++frame) {
+    simulated.render(frame, frames);
+    const rg::RectifiedFrames rectified =
+        ranger.rectify({frames[sim::Slot::visible_left], frames[sim::Slot::visible_right],
+                        frames[sim::Slot::infrared_left], frames[sim::Slot::infrared_right]});
+    for (const auto& t : simulated.truth(frame)) {
+      if (t.cls != sim::TargetClass::person || t.distance_m > 31) continue;
+      const auto& b = t.boxes[static_cast<size_t>(sim::Slot::visible_left)];
+      ASSERT_TRUE(b.has_value()) << t.id;
+      const cv::Rect box =
+          ranger.raw_box_to_rectified(rg::Mode::visible, b->x_min, b->y_min, b->x_max, b->y_max);
+      const rg::RangedTarget r = ranger.range(rectified, rg::Mode::visible, box, options);
+      ranged_frames.emplace(t.id, 0);
+      if (r.range.status != rg::RangeStatus::ok) {
+        std::cout << "frame " << frame << " " << t.id << ": " << r.range.message << "\n";
+        continue;
+      }
+      std::cout << "frame " << frame << " " << t.id << ": " << r.range.distance_m << " m (truth "
+                << t.distance_m << ", sigma " << r.range.sigma_m << ", " << r.range.points_used
+                << " points)\n";
+      // Measured (seed 3, frames 0-3): errors 0.01-0.39 m from 5 to 30 m.
+      EXPECT_LT(std::abs(r.range.distance_m - t.distance_m), 0.02 * t.distance_m + 0.1)
+          << t.id << " frame " << frame;
+      // The position is the distance along the target's direction (rig frame).
+      EXPECT_NEAR(r.range.position_m.norm(), r.range.distance_m, 1e-6);
+      ++ranged_frames[t.id];
+    }
   }
-  EXPECT_EQ(ranged, 6);
+  EXPECT_EQ(ranged_frames.size(), 6u);  // the people at 5, 10, 15, 20, 25 and 30 m
+  for (const auto& [id, count] : ranged_frames) EXPECT_GE(count, kFrames / 2) << id;
 }
 
 TEST(StereoRanger, BadFramesAreClearErrors) {
