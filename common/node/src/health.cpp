@@ -28,6 +28,7 @@ HealthReporter::HealthReporter(transport::Participant& participant, std::string 
       period_(period) {}
 
 void HealthReporter::set_state(HealthState state, const std::string& message) {
+  if (state == HEALTH_STOPPING) systemd_.stopping();
   {
     std::lock_guard<std::mutex> lock(mutex_);
     state_ = state;
@@ -70,6 +71,8 @@ void HealthReporter::bad_input(const std::string& message) {
 }
 
 void HealthReporter::tick() {
+  systemd_.ready(service_);
+  systemd_.watchdog();
   if (std::chrono::steady_clock::now() - last_publish_ >= period_) publish_now();
 }
 

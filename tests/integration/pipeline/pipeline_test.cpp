@@ -7,6 +7,8 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <csignal>
+#include <filesystem>
 #include <fstream>
 #include <limits>
 #include <map>
@@ -14,6 +16,7 @@
 #include <set>
 #include <sstream>
 #include <thread>
+#include <vector>
 
 #include "thermovis/runtime/rig_io.hpp"
 #include "thermovis/runtime/scene_io.hpp"
@@ -177,6 +180,106 @@ TEST(Pipeline, RangesOfTheSimulatedPeopleReachOtherDdsApplications) {
   const auto summary = nlohmann::json::parse(summary_line);
   EXPECT_GT(summary["frames"].get<int>(), 100);
   EXPECT_EQ(summary["restarts"].get<int>(), 0);
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+
+namespace {
+
+// The pid of the service `executable` running on DDS domain `domain` (from /proc), or 0.
+pid_t service_pid(const std::string& executable, int domain) {
+  const std::string path = (thermovis::test::bin_dir() / executable).string();
+  for (const auto& entry : std::filesystem::directory_iterator("/proc")) {
+    const std::string name = entry.path().filename().string();
+    if (name.find_first_not_of("0123456789") != std::string::npos) continue;
+    std::ifstream in(entry.path() / "cmdline");
+    std::vector<std::string> argv;
+    for (std::string arg; std::getline(in, arg, '\0');) argv.push_back(arg);
+    if (argv.size() < 3 || argv[0] != path) continue;
+    for (std::size_t i = 1; i + 1 < argv.size(); ++i) {
+      if (argv[i] == "--domain" && argv[i + 1] == std::to_string(domain))
+        return static_cast<pid_t>(std::stoi(name));
+    }
+  }
+  return 0;
+}
+
+TEST(Pipeline, AServiceKilledWithSigkillIsRestartedAndRangesResume) {
+  const auto dir = thermovis::test::temp_dir("pipeline_kill");
+  const int domain = private_domain();
+  ChildProcess supervisor(
+      {(thermovis::test::bin_dir() / "thermovis-supervisor").string(), "--domain",
+       std::to_string(domain), "--profile", tv::transport::kLoopbackProfile, "--log-dir",
+       (dir / "logs").string(), "--json"},
+      dir / "supervisor.log");
+  tv::transport::ParticipantConfig pc;
+  pc.domain_id = domain;
+  pc.profile = tv::transport::kLoopbackProfile;
+  pc.profiles_file = tv::transport::shipped_profile_file(pc.profile);
+  pc.name = "pipeline-kill-test";
+  tv::transport::Participant participant(pc);
+  tv::transport::Reader<tv::RangeArray> ranges(participant, tv::transport::topics::kRanges,
+                                               tv::transport::event_topic_qos(64));
+  using Clock = std::chrono::steady_clock;
+  // Range results with targets, counted until `until` or `wanted`; the time of the last one.
+  Clock::time_point last_result{};
+  auto collect = [&](int wanted, Clock::time_point until) {
+    int got = 0;
+    while (Clock::now() < until && got < wanted) {
+      ranges.wait_for_data(100ms);
+      auto samples = ranges.take();
+      for (std::size_t i = 0; i < samples.size(); ++i) {
+        if (samples[i].targets().empty()) continue;
+        ++got;
+        last_result = Clock::now();
+      }
+    }
+    return got;
+  };
+  ASSERT_GE(collect(30, Clock::now() + 180s), 30) << supervisor.log();
+
+  // The detector dies without warning; the rest keeps running, the supervisor restarts it.
+  for (const char* service : {"thermovis-detect", "thermovis-match"}) {
+    SCOPED_TRACE(service);
+    const pid_t victim = service_pid(service, domain);
+    ASSERT_GT(victim, 0);
+    const pid_t bridge = service_pid("thermovis-bridge", domain);
+    ::kill(victim, SIGKILL);
+    const auto killed = Clock::now();
+    // Results already on their way may still arrive; then a gap; then results again.
+    Clock::time_point first_after{};
+    const auto until = killed + 60s;
+    while (Clock::now() < until && first_after == Clock::time_point{}) {
+      ranges.wait_for_data(100ms);
+      auto samples = ranges.take();
+      for (std::size_t i = 0; i < samples.size(); ++i) {
+        if (!samples[i].targets().empty() && Clock::now() - killed > 200ms)
+          first_after = Clock::now();
+      }
+    }
+    ASSERT_NE(first_after, Clock::time_point{}) << "no ranges within 60 s after the kill\n"
+                                                << supervisor.log();
+    const double outage_ms =
+        std::chrono::duration<double, std::milli>(first_after - killed).count();
+    std::cout << service << " killed: ranges again after " << outage_ms << " ms\n";
+    RecordProperty(std::string(service) + "_outage_ms", static_cast<int>(outage_ms));
+    EXPECT_GE(collect(20, Clock::now() + 60s), 20) << "ranges did not keep flowing";
+    const pid_t replacement = service_pid(service, domain);
+    EXPECT_GT(replacement, 0);
+    EXPECT_NE(replacement, victim);
+    EXPECT_EQ(service_pid("thermovis-bridge", domain), bridge) << "the others keep running";
+  }
+
+  supervisor.signal(SIGTERM);
+  ASSERT_EQ(supervisor.wait(60s), 0) << supervisor.log();
+  std::istringstream log(supervisor.log());
+  std::string summary_line;
+  for (std::string line; std::getline(log, line);) {
+    if (!line.empty() && line.front() == '{') summary_line = line;
+  }
+  ASSERT_FALSE(summary_line.empty()) << supervisor.log();
+  EXPECT_EQ(nlohmann::json::parse(summary_line)["restarts"].get<int>(), 2);
   std::filesystem::remove_all(dir);
 }
 

@@ -3,9 +3,13 @@
 // and the next good sample is still served; a configuration naming a missing file is a clear
 // error; SIGTERM stops every service with exit code 0.
 #include <gtest/gtest.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <sys/un.h>
 #include <unistd.h>
 
 #include <cmath>
+#include <cstring>
 #include <functional>
 #include <limits>
 #include <map>
@@ -372,6 +376,62 @@ TEST(Services, EveryServiceStopsCleanlyOnSigterm) {
     process->signal(SIGTERM);
     EXPECT_EQ(process->wait(30s), 0) << name << ":\n" << process->log();
   }
+}
+
+// systemd's side of sd_notify: a datagram socket the service's notifications arrive on.
+class NotifySocket {
+ public:
+  explicit NotifySocket(const std::filesystem::path& path) : path_(path) {
+    fd_ = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
+    sockaddr_un address{};
+    address.sun_family = AF_UNIX;
+    std::strncpy(address.sun_path, path.c_str(), sizeof(address.sun_path) - 1);
+    if (fd_ < 0 || ::bind(fd_, reinterpret_cast<const sockaddr*>(&address), sizeof(address)) != 0)
+      throw std::runtime_error("cannot bind " + path.string());
+  }
+  ~NotifySocket() {
+    ::close(fd_);
+    std::filesystem::remove(path_);
+  }
+  // The next message, or "" after `timeout`.
+  std::string receive(std::chrono::milliseconds timeout) {
+    pollfd p{fd_, POLLIN, 0};
+    if (::poll(&p, 1, static_cast<int>(timeout.count())) <= 0) return "";
+    char buffer[512];
+    const ssize_t n = ::recv(fd_, buffer, sizeof(buffer), 0);
+    return n > 0 ? std::string(buffer, static_cast<std::size_t>(n)) : "";
+  }
+
+ private:
+  std::filesystem::path path_;
+  int fd_ = -1;
+};
+
+TEST(Services, TellSystemdWhenReadyAndPingItsWatchdog) {
+  Harness h(tv::test::private_domain());
+  NotifySocket notify(h.dir() / "notify.sock");
+  // As systemd starts a Type=notify unit with WatchdogSec=0.4.
+  ChildProcess range(
+      {(tv::test::bin_dir() / "thermovis-range").string(), "--domain",
+       std::to_string(tv::test::private_domain()), "--profile", tv::transport::kLoopbackProfile},
+      h.dir() / "range.log",
+      {{"NOTIFY_SOCKET", (h.dir() / "notify.sock").string()}, {"WATCHDOG_USEC", "400000"}});
+  const std::string ready = notify.receive(60s);
+  EXPECT_EQ(ready.rfind("READY=1", 0), 0u) << ready << "\n" << range.log();
+  // Idle (no matches arrive) the loop still turns: at least one ping per 0.2 s.
+  int pings = 0;
+  const auto until = std::chrono::steady_clock::now() + 2s;
+  while (std::chrono::steady_clock::now() < until) {
+    if (notify.receive(500ms) == "WATCHDOG=1") ++pings;
+  }
+  EXPECT_GE(pings, 6) << range.log();
+  range.signal(SIGTERM);
+  std::string message;
+  do {
+    message = notify.receive(10s);  // a last watchdog ping may come first
+  } while (message == "WATCHDOG=1");
+  EXPECT_EQ(message, "STOPPING=1");
+  EXPECT_EQ(range.wait(20s), 0) << range.log();
 }
 
 }  // namespace

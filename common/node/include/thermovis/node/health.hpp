@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "thermovis/health.h"
+#include "thermovis/node/systemd_notify.hpp"
 #include "thermovis/transport/counters.hpp"
 #include "thermovis/transport/writer.hpp"
 
@@ -27,7 +28,9 @@ class HealthReporter {
   // Counts a bad input and keeps its message; the state becomes DEGRADED until `recover_after`
   // good frames have passed.
   void bad_input(const std::string& message);
-  // Publishes if the period has passed since the last publication.
+  // Publishes if the period has passed since the last publication. Called from the service's
+  // processing loop, it also tells systemd (Type=notify units) that the service is ready, the
+  // first time, and pings its watchdog.
   void tick();
   void publish_now();
 
@@ -46,6 +49,7 @@ class HealthReporter {
   std::uint32_t errors_ = 0;
   std::uint64_t good_since_error_ = 0;
   std::chrono::steady_clock::time_point last_publish_{};
+  SystemdNotifier systemd_;
 };
 
 }  // namespace thermovis::node
