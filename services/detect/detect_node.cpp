@@ -1,6 +1,7 @@
 #include "detect_node.hpp"
 
 #include <algorithm>
+#include <thread>
 
 #include "thermovis/node/frame_codec.hpp"
 #include "thermovis/node/service.hpp"
@@ -99,6 +100,7 @@ void DetectNode::process(const GridStereoFrame& infrared) {
     }
   }
   found = detect::merge_detections(std::move(found), config_.nms_iou);
+  if (config_.debug_delay.count() > 0) std::this_thread::sleep_for(config_.debug_delay);
   std::sort(found.begin(), found.end(), [](const detect::Detection& a, const detect::Detection& b) {
     return a.score > b.score;
   });

@@ -26,6 +26,8 @@ struct DetectConfig {
   bool hog = false;  // also run the HOG people detector on the fused left image
   detect::HogOptions hog_options{0.5, 0.0, 1.05};
   double nms_iou = 0.3;
+  // Extra time spent per frame, for overload tests (a stage that cannot keep up).
+  std::chrono::milliseconds debug_delay{0};
   std::chrono::nanoseconds deadline{20'000'000};
 };
 

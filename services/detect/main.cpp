@@ -24,11 +24,16 @@ int main(int argc, char** argv) {
                  "height of the rig above the ground (person size check)")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  int debug_delay_ms = 0;
+  app.add_option("--debug-delay-ms", debug_delay_ms,
+                 "spend this much longer on every frame (overload tests)")
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--deadline-ms", deadline_ms, "DEADLINE QoS period of the frame topics")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
   CLI11_PARSE(app, argc, argv);
   config.deadline = node::deadline_from_ms(deadline_ms);
+  config.debug_delay = std::chrono::milliseconds(debug_delay_ms);
 
   return node::run_service(common, [&] {
     const auto rig =

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <csignal>
 #include <filesystem>
@@ -187,6 +188,12 @@ TEST(Pipeline, RangesOfTheSimulatedPeopleReachOtherDdsApplications) {
 
 namespace {
 
+double median(std::vector<double> values) {
+  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2),
+                   values.end());
+  return values[values.size() / 2];
+}
+
 // The pid of the service `executable` running on DDS domain `domain` (from /proc), or 0.
 pid_t service_pid(const std::string& executable, int domain) {
   const std::string path = (thermovis::test::bin_dir() / executable).string();
@@ -280,6 +287,94 @@ TEST(Pipeline, AServiceKilledWithSigkillIsRestartedAndRangesResume) {
   }
   ASSERT_FALSE(summary_line.empty()) << supervisor.log();
   EXPECT_EQ(nlohmann::json::parse(summary_line)["restarts"].get<int>(), 2);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(Pipeline, ASlowStageDropsOldFramesInsteadOfQueueing) {
+  const auto dir = thermovis::test::temp_dir("pipeline_overload");
+  const int domain = private_domain();
+  // The shipped manifest with a detector that spends 150 ms more on every frame: it can take
+  // about 6 of the 50 captures a second.
+  std::ifstream shipped(thermovis::test::source_root() / "deploy/pipeline.yaml");
+  std::stringstream text;
+  text << shipped.rdbuf();
+  std::string manifest = text.str();
+  const std::string detect = "\"${bin}/thermovis-detect\", ";
+  const auto at = manifest.find(detect);
+  ASSERT_NE(at, std::string::npos);
+  manifest.insert(at + detect.size(), "\"--debug-delay-ms\", \"150\", ");
+  std::ofstream(dir / "slow.yaml") << manifest;
+
+  ChildProcess supervisor(
+      {(thermovis::test::bin_dir() / "thermovis-supervisor").string(), "--domain",
+       std::to_string(domain), "--profile", tv::transport::kLoopbackProfile, "--log-dir",
+       (dir / "logs").string(), "--manifest", (dir / "slow.yaml").string(), "--json"},
+      dir / "supervisor.log");
+  tv::transport::ParticipantConfig pc;
+  pc.domain_id = domain;
+  pc.profile = tv::transport::kLoopbackProfile;
+  pc.profiles_file = tv::transport::shipped_profile_file(pc.profile);
+  pc.name = "pipeline-overload-test";
+  tv::transport::Participant participant(pc);
+  tv::transport::Reader<tv::RangeArray> ranges(participant, tv::transport::topics::kRanges,
+                                               tv::transport::event_topic_qos(64));
+  tv::transport::Reader<tv::Health> health(participant, tv::transport::topics::kHealth,
+                                           tv::transport::state_topic_qos());
+  std::map<std::string, tv::Health> last;
+  auto take_health = [&] {
+    auto h = health.take();
+    for (std::size_t i = 0; i < h.size(); ++i) last[h[i].service().to_string()] = h[i];
+  };
+  using Clock = std::chrono::steady_clock;
+  // Wait for the first results, then watch 10 s.
+  int warmup = 0;
+  for (const auto until = Clock::now() + 180s; Clock::now() < until && warmup < 5;) {
+    ranges.wait_for_data(100ms);
+    warmup += static_cast<int>(ranges.take().size());
+  }
+  ASSERT_GE(warmup, 5) << supervisor.log();
+  take_health();
+  const auto frames_of = [&](const char* service) {
+    return last.count(service) ? last[service].frames_processed() : 0;
+  };
+  const std::uint64_t bridge0 = frames_of("thermovis-bridge");
+  const std::uint64_t detect0 = frames_of("thermovis-detect");
+  std::vector<double> latencies_ms;
+  const auto start = Clock::now();
+  while (Clock::now() - start < 10s) {
+    ranges.wait_for_data(100ms);
+    auto samples = ranges.take();
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+      std::int64_t end_ns = samples[i].capture_time_ns();
+      for (const auto& stamp : samples[i].stamps().stamps())
+        end_ns = std::max<std::int64_t>(end_ns, stamp.end_ns());
+      latencies_ms.push_back(static_cast<double>(end_ns - samples[i].capture_time_ns()) / 1e6);
+    }
+    take_health();
+  }
+  const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  const double bridge_rate = static_cast<double>(frames_of("thermovis-bridge") - bridge0) / seconds;
+  const double detect_rate = static_cast<double>(frames_of("thermovis-detect") - detect0) / seconds;
+  std::cout << "bridge " << bridge_rate << " captures/s, detect " << detect_rate << " frames/s, "
+            << latencies_ms.size() << " results\n";
+  // The slow stage sets the output rate; the bridge is not held back by it.
+  EXPECT_LE(detect_rate, 8.0);
+  EXPECT_GE(detect_rate, 2.0);
+  EXPECT_GE(bridge_rate, 4 * detect_rate);
+  EXPECT_LE(latencies_ms.size(), static_cast<std::size_t>(8.0 * seconds) + 5);
+  ASSERT_GE(latencies_ms.size(), 10u);
+  // No queue builds up: the results of the last seconds are no later than the first ones
+  // (each is a fresh capture plus one slow detection, not the tail of a backlog).
+  const std::size_t half = latencies_ms.size() / 2;
+  const double first =
+      median(std::vector<double>(latencies_ms.begin(), latencies_ms.begin() + half));
+  const double second =
+      median(std::vector<double>(latencies_ms.begin() + half, latencies_ms.end()));
+  EXPECT_LT(second, 1000.0);
+  EXPECT_LT(second, first + 200.0) << "latency grows: frames are queueing";
+
+  supervisor.signal(SIGTERM);
+  ASSERT_EQ(supervisor.wait(60s), 0) << supervisor.log();
   std::filesystem::remove_all(dir);
 }
 
