@@ -61,8 +61,10 @@ THERMOVIS_COMMAND("run", "the whole pipeline on the simulated rig: live ranges, 
                   [](CLI::App& app) -> thermovis::cli::Runner {
                     auto opt = std::make_shared<Options>();
                     thermovis::cli::add_session_options(app, opt->session);
+                    // The last --seconds given wins (deploy/run.sh passes a default first).
                     app.add_option("--seconds", opt->seconds, "run this long (0: until Ctrl-C)")
-                        ->capture_default_str();
+                        ->capture_default_str()
+                        ->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
                     app.add_flag("--json", opt->json,
                                  "ranges as JSON lines, the summary as the last line");
                     return [opt] { return run_pipeline(*opt); };

@@ -378,4 +378,42 @@ TEST(Pipeline, ASlowStageDropsOldFramesInsteadOfQueueing) {
   std::filesystem::remove_all(dir);
 }
 
+// The README's main job as a user runs it (here on a private domain, loopback profile): JSON
+// lines of ranges with their truth, the summary last, exit code 0.
+TEST(Pipeline, ThermovisRunPrintsRangesWithTheirTruthAndASummary) {
+  const auto dir = thermovis::test::temp_dir("thermovis_run");
+  ChildProcess run(
+      {(thermovis::test::bin_dir() / "thermovis").string(), "run", "--seconds", "60", "--seconds",
+       "20", "--json", "--domain", std::to_string(private_domain()), "--profile",
+       tv::transport::kLoopbackProfile, "--log-dir", (dir / "logs").string()},
+      dir / "run.log");
+  ASSERT_EQ(run.wait(180s), 0) << run.log();
+  std::istringstream lines(run.log());
+  std::vector<nlohmann::json> ranges;
+  nlohmann::json summary;
+  for (std::string line; std::getline(lines, line);) {
+    if (line.empty() || line.front() != '{') continue;
+    const auto j = nlohmann::json::parse(line);
+    if (j.contains("frame_seq"))
+      ranges.push_back(j);
+    else
+      summary = j;
+  }
+  ASSERT_FALSE(summary.is_null()) << run.log();
+  EXPECT_GT(summary["frames"].get<int>(), 20);
+  EXPECT_EQ(summary["ranges"].get<std::size_t>(), ranges.size());
+  ASSERT_GT(ranges.size(), 50u);
+  std::size_t on_target = 0;
+  for (const auto& r : ranges) {
+    if (r["truth_id"].is_null()) continue;
+    ++on_target;
+    EXPECT_NEAR(r["error_m"].get<double>(),
+                r["distance_m"].get<double>() - r["truth_distance_m"].get<double>(), 1e-3);
+  }
+  EXPECT_EQ(summary["ranges_on_target"].get<std::size_t>(), on_target);
+  EXPECT_GT(on_target, ranges.size() * 9 / 10);
+  EXPECT_LT(summary["mean_abs_error_m"].get<double>(), 1.0);
+  std::filesystem::remove_all(dir);
+}
+
 }  // namespace
