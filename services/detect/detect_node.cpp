@@ -1,6 +1,6 @@
 #include "detect_node.hpp"
 
-#include <algorithm>
+#include <cmath>
 #include <thread>
 
 #include "thermovis/node/frame_codec.hpp"
@@ -11,6 +11,9 @@
 
 namespace thermovis::detect_service {
 namespace {
+
+// How long a frame's detection waits for the fused image of the same capture (--hog).
+constexpr std::chrono::milliseconds kFusedWait{50};
 
 // This node holds at most one frame of each topic while it works on it.
 transport::TopicQos frame_reader_qos(std::chrono::nanoseconds deadline) {
@@ -72,12 +75,15 @@ void DetectNode::run() {
 }
 
 cv::Mat DetectNode::fused_left_for(std::uint64_t seq) {
-  // The fused frame of the same capture is published with the rectified infrared one.
-  for (int attempt = 0; attempt < 5; ++attempt) {
+  // rectify-fuse publishes the fused frame of a capture after its rectified pairs (once the
+  // fusion is done): wait for it a while, never for a capture already passed.
+  const auto until = std::chrono::steady_clock::now() + kFusedWait;
+  while (std::chrono::steady_clock::now() < until && !node::stop_requested()) {
     auto fused = fused_in_->take();
     for (std::size_t i = 0; i < fused.size(); ++i) {
       if (fused[i].seq() == seq)
         return node::view(fused[i], node::Eye::left, grid_.image_size()).clone();
+      if (fused[i].seq() > seq) return {};
     }
     fused_in_->wait_for_data(std::chrono::milliseconds(2));
   }
@@ -101,10 +107,8 @@ void DetectNode::process(const GridStereoFrame& infrared) {
   }
   found = detect::merge_detections(std::move(found), config_.nms_iou);
   if (config_.debug_delay.count() > 0) std::this_thread::sleep_for(config_.debug_delay);
-  std::sort(found.begin(), found.end(), [](const detect::Detection& a, const detect::Detection& b) {
-    return a.score > b.score;
-  });
-  if (found.size() > MAX_TARGETS) found.resize(MAX_TARGETS);  // the strongest fit the message
+  // merge_detections returns them strongest first: the strongest fit the message.
+  if (found.size() > MAX_TARGETS) found.resize(MAX_TARGETS);
 
   DetectionArray out;
   out.frame_seq(infrared.seq());
