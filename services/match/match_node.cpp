@@ -117,7 +117,7 @@ MatchNode::MatchNode(transport::Participant& participant, const camera::Rig& rig
   const auto geometry = node::pipeline_geometry(rig, config.grid);
   grid_size_ = geometry.grid.image_size();
   // The largest disparity of either pair for the nearest target searched.
-  const auto infrared = node::registered_infrared_geometry(rig, config.grid);
+  const auto infrared = node::registered_infrared_geometry(rig, geometry);
   const range::RangingGeometry widest{
       geometry.grid, std::max(geometry.baseline_m, infrared.baseline_m), geometry.T_ref_left_rect};
   config_.match.min_disparity_px = 0.0;

@@ -33,11 +33,17 @@ range::RangingGeometry ranging_geometry(const rectify::StereoGeometry& stereo) {
 
 }  // namespace
 
+RangeNode::Geometries RangeNode::geometries_of(const camera::Rig& rig,
+                                               const node::GridOptions& grid) {
+  const auto visible = node::pipeline_geometry(rig, grid);
+  return {ranging_geometry(visible),
+          ranging_geometry(node::registered_infrared_geometry(rig, visible))};
+}
+
 RangeNode::RangeNode(transport::Participant& participant, const camera::Rig& rig,
                      const RangeConfig& config, const std::string& service_name)
     : config_(config),
-      geometry_(ranging_geometry(node::pipeline_geometry(rig, config.grid))),
-      infrared_geometry_(ranging_geometry(node::registered_infrared_geometry(rig, config.grid))),
+      geometry_(geometries_of(rig, config.grid)),
       T_camera_ref_(rig.camera(rig.visible.left).T_ref_cam.inverse()),
       matches_in_(participant, transport::topics::kMatches, transport::event_topic_qos()),
       ranges_out_(participant, transport::topics::kRanges, transport::event_topic_qos()),
@@ -82,7 +88,7 @@ void RangeNode::answer(const MatchArray& matches) {
     }
     // range_target skips non-finite points and those outside the box.
     const range::RangingGeometry& geometry =
-        target.band() == BAND_INFRARED ? infrared_geometry_ : geometry_;
+        target.band() == BAND_INFRARED ? geometry_.infrared : geometry_.visible;
     range::TargetRange r =
         range::range_target(geometry, box, correspondences_of(target), config_.range);
     if (!config_.surface)

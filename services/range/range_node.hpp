@@ -43,9 +43,13 @@ class RangeNode {
   void answer(const MatchArray& matches);
 
   RangeConfig config_;
-  range::RangingGeometry geometry_;           // visible and fused points
-  range::RangingGeometry infrared_geometry_;  // points of the registered infrared pair
-  Eigen::Isometry3d T_camera_ref_;            // rig frame -> left visible camera frame
+  struct Geometries {
+    range::RangingGeometry visible;   // visible and fused points
+    range::RangingGeometry infrared;  // points of the registered infrared pair
+  };
+  static Geometries geometries_of(const camera::Rig& rig, const node::GridOptions& grid);
+  Geometries geometry_;
+  Eigen::Isometry3d T_camera_ref_;  // rig frame -> left visible camera frame
   transport::Reader<MatchArray> matches_in_;
   transport::Writer<RangeArray> ranges_out_;
   transport::Writer<FrameTiming> timing_out_;

@@ -26,8 +26,8 @@ rectify::StereoGeometry pipeline_geometry(const camera::Rig& rig, const GridOpti
 }
 
 rectify::StereoGeometry registered_infrared_geometry(const camera::Rig& rig,
-                                                     const GridOptions& options) {
-  rectify::StereoGeometry g = pipeline_geometry(rig, options);
+                                                     const rectify::StereoGeometry& visible) {
+  rectify::StereoGeometry g = visible;
   const Eigen::Vector3d left = rig.camera(rig.infrared.left).T_ref_cam.translation();
   const Eigen::Vector3d right = rig.camera(rig.infrared.right).T_ref_cam.translation();
   g.left = rig.infrared.left;

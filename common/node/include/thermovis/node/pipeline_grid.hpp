@@ -26,7 +26,9 @@ rectify::StereoGeometry pipeline_geometry(const camera::Rig& rig, const GridOpti
 // infrared baseline, so ranging on them uses this geometry: baseline_m is the x component of
 // the infrared cameras' offset in the rectified frame (the other components shift rows by a
 // fraction of a pixel at the distances of interest).
+// `visible` is pipeline_geometry(rig, options) (computed once by the caller: it scans the
+// field of both cameras).
 rectify::StereoGeometry registered_infrared_geometry(const camera::Rig& rig,
-                                                     const GridOptions& options);
+                                                     const rectify::StereoGeometry& visible);
 
 }  // namespace thermovis::node
