@@ -49,7 +49,7 @@ int run_bench(const Options& opt) {
   const auto latency = session.latency();
   const auto errors = session.errors();
   if (opt.json) {
-    auto j = nlohmann::json::parse(thermovis::supervisor::summary_json(latency));
+    auto j = thermovis::cli::summary_json(latency, errors);
     j["seconds"] = opt.seconds;
     j["prerender"] = opt.session.prerender;
     nlohmann::json processes = nlohmann::json::object();
@@ -60,11 +60,6 @@ int run_bench(const Options& opt) {
           {"rss_mb", p.rss_mb}};
     }
     j["processes"] = processes;
-    j["ranges"] = errors.ranges;
-    j["ranges_on_target"] = errors.matched;
-    j["mean_abs_error_m"] = errors.mean_abs_error_m;
-    j["p95_abs_error_m"] = errors.p95_abs_error_m;
-    j["mean_abs_relative_error"] = errors.mean_abs_relative_error;
     std::cout << j.dump() << std::endl;
   } else {
     std::cout << thermovis::supervisor::summary_text(latency, session.deadline_ms());

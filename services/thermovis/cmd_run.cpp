@@ -3,7 +3,6 @@
 #include <chrono>
 #include <iostream>
 #include <memory>
-#include <nlohmann/json.hpp>
 #include <thread>
 
 #include "command.hpp"
@@ -44,12 +43,7 @@ int run_pipeline(Options& opt) {
   const auto latency = session.latency();
   const auto errors = session.errors();
   if (opt.json) {
-    auto summary = nlohmann::json::parse(thermovis::supervisor::summary_json(latency));
-    summary["ranges"] = errors.ranges;
-    summary["ranges_on_target"] = errors.matched;
-    summary["mean_abs_error_m"] = errors.mean_abs_error_m;
-    summary["p95_abs_error_m"] = errors.p95_abs_error_m;
-    std::cout << summary.dump() << std::endl;
+    std::cout << thermovis::cli::summary_json(latency, errors).dump() << std::endl;
   } else {
     std::cout << thermovis::supervisor::summary_text(latency, session.deadline_ms())
               << thermovis::cli::errors_text(errors);

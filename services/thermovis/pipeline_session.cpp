@@ -17,6 +17,7 @@
 #include "thermovis/runtime/scene_io.hpp"
 #include "thermovis/transport/clock.hpp"
 #include "thermovis/transport/participant.hpp"
+#include "thermovis/transport/stamps.hpp"
 
 namespace thermovis::cli {
 namespace {
@@ -131,13 +132,11 @@ std::vector<CheckedRange> PipelineSession::step() {
   std::vector<CheckedRange> out;
   for (const RangeArray& array : supervisor_->step()) {
     ++frames_;
-    std::int64_t end_ns = array.capture_time_ns();
-    for (const StageStamp& stamp : array.stamps().stamps())
-      end_ns = std::max(end_ns, stamp.end_ns());
+    const double latency = transport::latency_ms(array.stamps(), array.capture_time_ns());
     for (const TargetRange& range : array.targets()) {
       CheckedRange c;
       c.seq = array.frame_seq();
-      c.latency_ms = static_cast<double>(end_ns - array.capture_time_ns()) / 1e6;
+      c.latency_ms = latency;
       c.range = range;
       c.truth = truth_for(c.seq, range);
       if (c.truth) c.error_m = range.distance_m() - c.truth->distance_m;
@@ -259,6 +258,17 @@ std::string range_json(const CheckedRange& c) {
     j["truth_id"] = nullptr;
   }
   return j.dump();
+}
+
+nlohmann::json summary_json(const supervisor::LatencySummary& latency,
+                            const RangeErrorSummary& errors) {
+  auto j = nlohmann::json::parse(supervisor::summary_json(latency));
+  j["ranges"] = errors.ranges;
+  j["ranges_on_target"] = errors.matched;
+  j["mean_abs_error_m"] = errors.mean_abs_error_m;
+  j["p95_abs_error_m"] = errors.p95_abs_error_m;
+  j["mean_abs_relative_error"] = errors.mean_abs_relative_error;
+  return j;
 }
 
 std::string errors_text(const RangeErrorSummary& s) {

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <map>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <vector>
@@ -107,5 +108,9 @@ class PipelineSession {
 std::string range_line(const CheckedRange& checked);
 std::string range_json(const CheckedRange& checked);
 std::string errors_text(const RangeErrorSummary& errors);
+// The supervisor's latency summary (supervisor::summary_json) with the ranging errors added:
+// ranges, ranges_on_target, mean_abs_error_m, p95_abs_error_m, mean_abs_relative_error.
+nlohmann::json summary_json(const supervisor::LatencySummary& latency,
+                            const RangeErrorSummary& errors);
 
 }  // namespace thermovis::cli

@@ -13,6 +13,13 @@ void clear_stamps(thermovis::PipelineStamps& stamps) {
   }
 }
 
+double latency_ms(const thermovis::PipelineStamps& stamps, std::int64_t capture_ns) {
+  std::int64_t end_ns = capture_ns;
+  for (const auto& stamp : stamps.stamps())
+    if (stamp.stage() != thermovis::STAGE_NONE) end_ns = std::max(end_ns, stamp.end_ns());
+  return static_cast<double>(end_ns - capture_ns) / 1e6;
+}
+
 std::size_t stamp_count(const thermovis::PipelineStamps& stamps) {
   std::size_t count = 0;
   while (count < stamps.stamps().size() &&

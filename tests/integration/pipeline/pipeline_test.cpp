@@ -19,6 +19,7 @@
 #include <thread>
 #include <vector>
 
+#include "pipeline_harness.hpp"
 #include "thermovis/runtime/rig_io.hpp"
 #include "thermovis/runtime/scene_io.hpp"
 #include "thermovis/sim/simulated_rig.hpp"
@@ -27,6 +28,7 @@
 #include "thermovis/transport/participant.hpp"
 #include "thermovis/transport/qos.hpp"
 #include "thermovis/transport/reader.hpp"
+#include "thermovis/transport/stamps.hpp"
 #include "thermovis/transport/topics.hpp"
 
 namespace {
@@ -54,9 +56,7 @@ TEST(Pipeline, RangesOfTheSimulatedPeopleReachOtherDdsApplications) {
   const int domain = private_domain();
   const auto scene_path = thermovis::test::source_root() / "deploy/scenes/paper.yaml";
   ChildProcess supervisor(
-      {(thermovis::test::bin_dir() / "thermovis-supervisor").string(), "--domain",
-       std::to_string(domain), "--profile", tv::transport::kLoopbackProfile, "--log-dir",
-       (dir / "logs").string(), "--scene", scene_path.string(), "--json"},
+      thermovis::test::supervisor_command(dir, domain, {"--scene", scene_path.string()}),
       dir / "supervisor.log");
 #ifdef THERMOVIS_HAVE_TAP
   const std::string cyclone_config =
@@ -67,15 +67,10 @@ TEST(Pipeline, RangesOfTheSimulatedPeopleReachOtherDdsApplications) {
       dir / "tap.log", {{"CYCLONEDDS_URI", cyclone_config}});
 #endif
 
-  tv::transport::ParticipantConfig pc;
-  pc.domain_id = domain;
-  pc.profile = tv::transport::kLoopbackProfile;
-  pc.profiles_file = tv::transport::shipped_profile_file(pc.profile);
-  pc.name = "pipeline-test";
-  tv::transport::Participant participant(pc);
-  tv::transport::Reader<tv::RangeArray> ranges(participant, tv::transport::topics::kRanges,
+  const auto participant = thermovis::test::loopback_participant(domain, "pipeline-test");
+  tv::transport::Reader<tv::RangeArray> ranges(*participant, tv::transport::topics::kRanges,
                                                tv::transport::event_topic_qos(64));
-  tv::transport::Reader<tv::Health> health(participant, tv::transport::topics::kHealth,
+  tv::transport::Reader<tv::Health> health(*participant, tv::transport::topics::kHealth,
                                            tv::transport::state_topic_qos());
 
   const tv::sim::SimulatedRig sim(tv::runtime::load_rig(tv::runtime::default_rig_path()),
@@ -172,13 +167,8 @@ TEST(Pipeline, RangesOfTheSimulatedPeopleReachOtherDdsApplications) {
   supervisor.signal(SIGTERM);
   const auto code = supervisor.wait(60s);
   ASSERT_EQ(code, 0) << supervisor.log();
-  std::istringstream log(supervisor.log());
-  std::string summary_line;
-  for (std::string line; std::getline(log, line);) {
-    if (!line.empty() && line.front() == '{') summary_line = line;  // the last JSON line
-  }
-  ASSERT_FALSE(summary_line.empty()) << supervisor.log();
-  const auto summary = nlohmann::json::parse(summary_line);
+  const auto summary = thermovis::test::last_json_line(supervisor.log());
+  ASSERT_FALSE(summary.is_null()) << supervisor.log();
   EXPECT_GT(summary["frames"].get<int>(), 100);
   EXPECT_EQ(summary["restarts"].get<int>(), 0);
   std::filesystem::remove_all(dir);
@@ -215,18 +205,9 @@ pid_t service_pid(const std::string& executable, int domain) {
 TEST(Pipeline, AServiceKilledWithSigkillIsRestartedAndRangesResume) {
   const auto dir = thermovis::test::temp_dir("pipeline_kill");
   const int domain = private_domain();
-  ChildProcess supervisor(
-      {(thermovis::test::bin_dir() / "thermovis-supervisor").string(), "--domain",
-       std::to_string(domain), "--profile", tv::transport::kLoopbackProfile, "--log-dir",
-       (dir / "logs").string(), "--json"},
-      dir / "supervisor.log");
-  tv::transport::ParticipantConfig pc;
-  pc.domain_id = domain;
-  pc.profile = tv::transport::kLoopbackProfile;
-  pc.profiles_file = tv::transport::shipped_profile_file(pc.profile);
-  pc.name = "pipeline-kill-test";
-  tv::transport::Participant participant(pc);
-  tv::transport::Reader<tv::RangeArray> ranges(participant, tv::transport::topics::kRanges,
+  ChildProcess supervisor(thermovis::test::supervisor_command(dir, domain), dir / "supervisor.log");
+  const auto participant = thermovis::test::loopback_participant(domain, "pipeline-kill-test");
+  tv::transport::Reader<tv::RangeArray> ranges(*participant, tv::transport::topics::kRanges,
                                                tv::transport::event_topic_qos(64));
   using Clock = std::chrono::steady_clock;
   // Range results with targets, counted until `until` or `wanted`; the time of the last one.
@@ -280,13 +261,9 @@ TEST(Pipeline, AServiceKilledWithSigkillIsRestartedAndRangesResume) {
 
   supervisor.signal(SIGTERM);
   ASSERT_EQ(supervisor.wait(60s), 0) << supervisor.log();
-  std::istringstream log(supervisor.log());
-  std::string summary_line;
-  for (std::string line; std::getline(log, line);) {
-    if (!line.empty() && line.front() == '{') summary_line = line;
-  }
-  ASSERT_FALSE(summary_line.empty()) << supervisor.log();
-  EXPECT_EQ(nlohmann::json::parse(summary_line)["restarts"].get<int>(), 2);
+  const auto summary = thermovis::test::last_json_line(supervisor.log());
+  ASSERT_FALSE(summary.is_null()) << supervisor.log();
+  EXPECT_EQ(summary["restarts"].get<int>(), 2);
   std::filesystem::remove_all(dir);
 }
 
@@ -305,20 +282,13 @@ TEST(Pipeline, ASlowStageDropsOldFramesInsteadOfQueueing) {
   manifest.insert(at + detect.size(), "\"--debug-delay-ms\", \"150\", ");
   std::ofstream(dir / "slow.yaml") << manifest;
 
-  ChildProcess supervisor(
-      {(thermovis::test::bin_dir() / "thermovis-supervisor").string(), "--domain",
-       std::to_string(domain), "--profile", tv::transport::kLoopbackProfile, "--log-dir",
-       (dir / "logs").string(), "--manifest", (dir / "slow.yaml").string(), "--json"},
-      dir / "supervisor.log");
-  tv::transport::ParticipantConfig pc;
-  pc.domain_id = domain;
-  pc.profile = tv::transport::kLoopbackProfile;
-  pc.profiles_file = tv::transport::shipped_profile_file(pc.profile);
-  pc.name = "pipeline-overload-test";
-  tv::transport::Participant participant(pc);
-  tv::transport::Reader<tv::RangeArray> ranges(participant, tv::transport::topics::kRanges,
+  ChildProcess supervisor(thermovis::test::supervisor_command(
+                              dir, domain, {"--manifest", (dir / "slow.yaml").string()}),
+                          dir / "supervisor.log");
+  const auto participant = thermovis::test::loopback_participant(domain, "pipeline-overload-test");
+  tv::transport::Reader<tv::RangeArray> ranges(*participant, tv::transport::topics::kRanges,
                                                tv::transport::event_topic_qos(64));
-  tv::transport::Reader<tv::Health> health(participant, tv::transport::topics::kHealth,
+  tv::transport::Reader<tv::Health> health(*participant, tv::transport::topics::kHealth,
                                            tv::transport::state_topic_qos());
   std::map<std::string, tv::Health> last;
   auto take_health = [&] {
@@ -345,10 +315,8 @@ TEST(Pipeline, ASlowStageDropsOldFramesInsteadOfQueueing) {
     ranges.wait_for_data(100ms);
     auto samples = ranges.take();
     for (std::size_t i = 0; i < samples.size(); ++i) {
-      std::int64_t end_ns = samples[i].capture_time_ns();
-      for (const auto& stamp : samples[i].stamps().stamps())
-        end_ns = std::max<std::int64_t>(end_ns, stamp.end_ns());
-      latencies_ms.push_back(static_cast<double>(end_ns - samples[i].capture_time_ns()) / 1e6);
+      latencies_ms.push_back(
+          tv::transport::latency_ms(samples[i].stamps(), samples[i].capture_time_ns()));
     }
     take_health();
   }

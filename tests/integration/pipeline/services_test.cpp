@@ -18,6 +18,7 @@
 #include <random>
 #include <thread>
 
+#include "pipeline_harness.hpp"
 #include "thermovis/node/frame_codec.hpp"
 #include "thermovis/node/pipeline_grid.hpp"
 #include "thermovis/range/ranging.hpp"
@@ -42,12 +43,7 @@ constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
 class Harness {
  public:
   explicit Harness(int domain) : domain_(domain), dir_(tv::test::temp_dir("services")) {
-    tv::transport::ParticipantConfig pc;
-    pc.domain_id = domain;
-    pc.profile = tv::transport::kLoopbackProfile;
-    pc.profiles_file = tv::transport::shipped_profile_file(pc.profile);
-    pc.name = "services-test";
-    participant_ = std::make_unique<tv::transport::Participant>(pc);
+    participant_ = tv::test::loopback_participant(domain, "services-test");
     health_ = std::make_unique<tv::transport::Reader<tv::Health>>(*participant_, topics::kHealth,
                                                                   tv::transport::state_topic_qos());
   }

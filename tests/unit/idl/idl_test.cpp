@@ -95,6 +95,15 @@ TEST(TransportStamps, AppendUntilFull) {
   EXPECT_EQ(tt::stamp_count(stamps), thermovis::MAX_STAGE_STAMPS);
 }
 
+TEST(TransportStamps, LatencyRunsFromCaptureToTheLatestStageEnd) {
+  thermovis::PipelineStamps stamps;
+  tt::clear_stamps(stamps);
+  EXPECT_EQ(tt::latency_ms(stamps, 1'000'000), 0.0);
+  tt::append_stamp(stamps, thermovis::STAGE_BRIDGE, 1'000'000, 3'500'000);
+  tt::append_stamp(stamps, thermovis::STAGE_RANGE, 20'000'000, 26'000'000);
+  EXPECT_DOUBLE_EQ(tt::latency_ms(stamps, 1'000'000), 25.0);
+}
+
 TEST(IdlTypes, PublicContractNames) {
   EXPECT_EQ(thermovis::RangeArrayPubSubType().getName(), std::string("thermovis::RangeArray"));
   EXPECT_EQ(thermovis::HealthPubSubType().getName(), std::string("thermovis::Health"));

@@ -13,6 +13,10 @@ void clear_stamps(thermovis::PipelineStamps& stamps);
 // Number of used entries (up to the first unused one).
 std::size_t stamp_count(const thermovis::PipelineStamps& stamps);
 
+// Milliseconds from capture_ns to the latest stage end in `stamps` (0 without stamps): the
+// capture-to-output latency of the message carrying them.
+double latency_ms(const thermovis::PipelineStamps& stamps, std::int64_t capture_ns);
+
 // Appends `stage` that ran from start_ns to end_ns (stamp clock, clock.hpp). Returns false,
 // leaving the stamps unchanged, when all MAX_STAGE_STAMPS entries are used or end < start.
 bool append_stamp(thermovis::PipelineStamps& stamps, thermovis::Stage stage, std::int64_t start_ns,

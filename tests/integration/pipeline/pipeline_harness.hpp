@@ -1,0 +1,52 @@
+#pragma once
+// What the pipeline's multi-process tests share: this test's own DDS participant (loopback
+// profile), the supervisor's command line on a private domain, and the supervisor's summary.
+#include <filesystem>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "thermovis/test/data.hpp"
+#include "thermovis/transport/participant.hpp"
+
+namespace thermovis::test {
+
+inline std::unique_ptr<transport::Participant> loopback_participant(int domain,
+                                                                    const std::string& name) {
+  transport::ParticipantConfig pc;
+  pc.domain_id = domain;
+  pc.profile = transport::kLoopbackProfile;
+  pc.profiles_file = transport::shipped_profile_file(pc.profile);
+  pc.name = name;
+  return std::make_unique<transport::Participant>(pc);
+}
+
+// thermovis-supervisor on `domain` (loopback profile, logs under dir/logs, JSON summary), with
+// `extra` arguments.
+inline std::vector<std::string> supervisor_command(const std::filesystem::path& dir, int domain,
+                                                   const std::vector<std::string>& extra = {}) {
+  std::vector<std::string> argv{(bin_dir() / "thermovis-supervisor").string(),
+                                "--domain",
+                                std::to_string(domain),
+                                "--profile",
+                                transport::kLoopbackProfile,
+                                "--log-dir",
+                                (dir / "logs").string(),
+                                "--json"};
+  argv.insert(argv.end(), extra.begin(), extra.end());
+  return argv;
+}
+
+// The last line of a log that is a JSON object (the supervisor's --json summary); null if none.
+inline nlohmann::json last_json_line(const std::string& log) {
+  std::istringstream lines(log);
+  std::string last;
+  for (std::string line; std::getline(lines, line);) {
+    if (!line.empty() && line.front() == '{') last = line;
+  }
+  return last.empty() ? nlohmann::json() : nlohmann::json::parse(last);
+}
+
+}  // namespace thermovis::test
