@@ -11,6 +11,9 @@ packages=(
   libfastrtps-dev fastddsgen fastdds-tools
   cyclonedds-dev cyclonedds-tools
   clang-format iproute2 procps
+  clang libclang-rt-14-dev
+  libcpp-httplib-dev chromium chromium-driver
+  openssl
 )
 
 missing=()
