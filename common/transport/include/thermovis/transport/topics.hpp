@@ -15,5 +15,7 @@ inline constexpr const char* kMatches = "thermovis/matches";        // MatchArra
 inline constexpr const char* kRanges = "thermovis/ranges";          // RangeArray
 inline constexpr const char* kTiming = "thermovis/timing";          // FrameTiming
 inline constexpr const char* kHealth = "thermovis/health";          // Health (keyed by service)
+// GridStereoFrame, BGR8: the fusion-ranging image (left; right is black), from thermovis-view.
+inline constexpr const char* kDisplay = "thermovis/display";
 
 }  // namespace thermovis::transport::topics

@@ -1,0 +1,192 @@
+#include "thermovis/display/ranging_image.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+
+#include <opencv2/imgproc.hpp>
+
+#include "thermovis/display/frame_stamp.hpp"
+
+namespace thermovis::display {
+namespace {
+
+constexpr int kFont = cv::FONT_HERSHEY_SIMPLEX;
+
+cv::Mat to_bgr(const cv::Mat& image) {
+  if (image.empty()) throw std::invalid_argument("display: empty image");
+  if (image.type() == CV_8UC3) return image.clone();
+  if (image.type() == CV_8UC1) {
+    cv::Mat bgr;
+    cv::cvtColor(image, bgr, cv::COLOR_GRAY2BGR);
+    return bgr;
+  }
+  throw std::invalid_argument("display: image type " + std::to_string(image.type()) +
+                              ", expected 8-bit grey or BGR");
+}
+
+// Box colours by band, chosen to stand out on grey infrared and on colour imagery alike.
+cv::Scalar colour_of(const Target& t) {
+  if (!std::isfinite(t.distance_m)) return {160, 160, 160};
+  switch (t.band) {
+    case kBandVisible:
+      return {0, 230, 255};  // yellow
+    case kBandInfrared:
+      return {0, 128, 255};  // orange
+    default:
+      return {80, 255, 80};  // green
+  }
+}
+
+// Text on a dark plate so that it reads on any background; `origin` is the plate's top-left.
+void label(cv::Mat& image, const std::string& text, cv::Point origin, double scale,
+           const cv::Scalar& colour) {
+  int baseline = 0;
+  const cv::Size size = cv::getTextSize(text, kFont, scale, 1, &baseline);
+  const int pad = 2;
+  origin.x = std::clamp(origin.x, 0, std::max(0, image.cols - size.width - 2 * pad));
+  origin.y = std::clamp(origin.y, 0, std::max(0, image.rows - size.height - baseline - 2 * pad));
+  cv::rectangle(image,
+                cv::Rect(origin, cv::Size(size.width + 2 * pad, size.height + baseline + 2 * pad)),
+                cv::Scalar(0, 0, 0), cv::FILLED);
+  cv::putText(image, text, origin + cv::Point(pad, pad + size.height), kFont, scale, colour, 1,
+              cv::LINE_AA);
+}
+
+void draw_targets(cv::Mat& image, const std::vector<Target>& targets, double scale) {
+  const double text_scale = std::clamp(image.cols / 1800.0, 0.35, 0.6);
+  for (const Target& t : targets) {
+    if (!(std::isfinite(t.box.x) && std::isfinite(t.box.y) && std::isfinite(t.box.width) &&
+          std::isfinite(t.box.height)))
+      continue;
+    const cv::Rect box(cv::Point(static_cast<int>(std::floor(t.box.x * scale)),
+                                 static_cast<int>(std::floor(t.box.y * scale))),
+                       cv::Point(static_cast<int>(std::ceil((t.box.x + t.box.width) * scale)),
+                                 static_cast<int>(std::ceil((t.box.y + t.box.height) * scale))));
+    const cv::Scalar colour = colour_of(t);
+    cv::rectangle(image, box, colour, 2, cv::LINE_AA);
+    int baseline = 0;
+    const int text_height = cv::getTextSize("0", kFont, text_scale, 1, &baseline).height;
+    // Above the box where there is room, else below it.
+    const int above = box.y - text_height - baseline - 6;
+    label(image, target_caption(t), {box.x, above >= 0 ? above : box.y + box.height + 2},
+          text_scale, colour);
+  }
+}
+
+std::string status_text(const Status& s) {
+  char text[256];
+  std::string latency = "-";
+  if (std::isfinite(s.latency_ms)) {
+    char l[32];
+    std::snprintf(l, sizeof l, "%.1f ms", s.latency_ms);
+    latency = l;
+  }
+  std::snprintf(text, sizeof text,
+                "frame %llu   capture to range %s   over %.0f ms: %llu of %llu   DEADLINE "
+                "misses %llu",
+                static_cast<unsigned long long>(s.frame_seq), latency.c_str(), s.deadline_ms,
+                static_cast<unsigned long long>(s.over_deadline),
+                static_cast<unsigned long long>(s.frames),
+                static_cast<unsigned long long>(s.deadline_misses));
+  std::string out = text;
+  if (!s.note.empty()) out += "   " + s.note;
+  return out;
+}
+
+// Header (stamp, then the status line) above `body`, padded to the stamp's width.
+cv::Mat with_header(const cv::Mat& body, const Status& status) {
+  const int width = std::max(body.cols, kStampWidth);
+  cv::Mat out(body.rows + kHeaderRows, width, CV_8UC3, cv::Scalar(0, 0, 0));
+  body.copyTo(out(cv::Rect(0, kHeaderRows, body.cols, body.rows)));
+  draw_stamp(out, status.frame_seq, status.capture_time_ns);
+  const bool late = std::isfinite(status.latency_ms) && status.latency_ms > status.deadline_ms;
+  const double scale = 0.42;
+  cv::putText(out, status_text(status), {4, kStampCell + 18}, kFont, scale,
+              late ? cv::Scalar(80, 160, 255) : cv::Scalar(230, 230, 230), 1, cv::LINE_AA);
+  return out;
+}
+
+}  // namespace
+
+const char* to_string(View view) {
+  switch (view) {
+    case View::fused:
+      return "fused";
+    case View::visible:
+      return "visible";
+    case View::infrared:
+      return "infrared";
+    case View::side_by_side:
+      return "side";
+  }
+  return "fused";
+}
+
+std::optional<View> parse_view(const std::string& name) {
+  for (View v : {View::fused, View::visible, View::infrared, View::side_by_side}) {
+    if (name == to_string(v)) return v;
+  }
+  return std::nullopt;
+}
+
+const char* band_name(std::uint32_t band) {
+  switch (band) {
+    case kBandVisible:
+      return "visible";
+    case kBandInfrared:
+      return "infrared";
+    case kBandFused:
+      return "fused";
+    default:
+      return "-";
+  }
+}
+
+std::string target_caption(const Target& t) {
+  char text[128];
+  const std::string name =
+      (t.label.empty() ? std::string("target") : t.label) + " #" + std::to_string(t.id);
+  if (!std::isfinite(t.distance_m)) {
+    std::snprintf(text, sizeof text, "%s no range", name.c_str());
+  } else {
+    const char* band = t.band == kBandVisible    ? "VIS"
+                       : t.band == kBandInfrared ? "IR"
+                       : t.band == kBandFused    ? "FUS"
+                                                 : "";
+    std::snprintf(text, sizeof text, "%s %.2f +- %.2f m %s", name.c_str(), t.distance_m, t.sigma_m,
+                  band);
+  }
+  return text;
+}
+
+cv::Mat compose(const cv::Mat& image, const std::vector<Target>& targets, const Status& status) {
+  cv::Mat body = to_bgr(image);
+  draw_targets(body, targets, 1.0);
+  return with_header(body, status);
+}
+
+cv::Mat compose_side_by_side(const cv::Mat& visible, const cv::Mat& infrared, const cv::Mat& fused,
+                             const std::vector<Target>& targets, const Status& status,
+                             double panel_scale) {
+  if (!(panel_scale > 0.0 && panel_scale <= 1.0))
+    throw std::invalid_argument("display: panel scale must be in (0, 1]");
+  if (visible.size() != infrared.size() || visible.size() != fused.size())
+    throw std::invalid_argument("display: side-by-side panels differ in size");
+  std::vector<cv::Mat> panels;
+  const char* names[] = {"visible", "infrared", "fused"};
+  int i = 0;
+  for (const cv::Mat* m : {&visible, &infrared, &fused}) {
+    cv::Mat panel;
+    cv::resize(to_bgr(*m), panel, cv::Size(), panel_scale, panel_scale, cv::INTER_AREA);
+    draw_targets(panel, targets, panel_scale);
+    label(panel, names[i++], {panel.cols - 80, panel.rows - 20}, 0.45, {255, 255, 255});
+    panels.push_back(panel);
+  }
+  cv::Mat row;
+  cv::hconcat(panels, row);
+  return with_header(row, status);
+}
+
+}  // namespace thermovis::display

@@ -1,0 +1,369 @@
+#include "view_node.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <nlohmann/json.hpp>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "thermovis/node/frame_codec.hpp"
+#include "thermovis/node/service.hpp"
+#include "thermovis/transport/clock.hpp"
+#include "thermovis/transport/qos.hpp"
+#include "thermovis/transport/stamps.hpp"
+#include "thermovis/transport/topics.hpp"
+
+namespace thermovis::view {
+namespace {
+
+using display::View;
+
+// Frames kept per band: range results arrive a few frames after their fused frame (detection,
+// matching and ranging lie between), and a loaded machine stretches that.
+constexpr std::size_t kRing = 16;
+constexpr std::size_t kKeptResults = 32;
+
+// Readers of the pipeline's frames: no DEADLINE (the viewer is not in the chain whose rate the
+// services watch, and takes what it can).
+transport::TopicQos frame_reader_qos() {
+  return transport::frame_topic_qos(std::chrono::nanoseconds(0), 2, 2);
+}
+
+// The display topic is written at the composition rate, far below 50 Hz: no DEADLINE either.
+transport::TopicQos display_writer_qos() {
+  return transport::frame_topic_qos(std::chrono::nanoseconds(0), 2, 2);
+}
+
+display::Target target_of(const TargetRange& r) {
+  display::Target t;
+  t.id = r.target_id();
+  t.label = r.label().to_string();
+  t.box = {r.box().x(), r.box().y(), r.box().width(), r.box().height()};
+  t.distance_m = r.distance_m();
+  t.sigma_m = r.sigma_m();
+  t.band = r.band();
+  t.points = r.point_count();
+  return t;
+}
+
+display::Target target_of(const Detection& d) {
+  display::Target t;
+  t.id = d.target_id();
+  t.label = d.label().to_string();
+  t.box = {d.box().x(), d.box().y(), d.box().width(), d.box().height()};
+  return t;
+}
+
+const char* state_name(HealthState state) {
+  switch (state) {
+    case HEALTH_STARTING:
+      return "starting";
+    case HEALTH_OK:
+      return "ok";
+    case HEALTH_DEGRADED:
+      return "degraded";
+    case HEALTH_FAILED:
+      return "failed";
+    case HEALTH_STOPPING:
+      return "stopping";
+  }
+  return "unknown";
+}
+
+double finite_or_null(double v) { return std::isfinite(v) ? v : -1.0; }
+
+// Copies the newest left image of `reader`'s samples into `ring` (reusing the oldest buffer),
+// when `wanted`; the loans go back when `samples` goes out of scope. False when the writer reused
+// the sample's slot during the copy (the copy is then dropped).
+bool copy_newest(transport::Samples<GridStereoFrame>& samples, std::deque<ViewNode::Image>& ring) {
+  const std::size_t i = samples.size() - 1;
+  const GridStereoFrame& frame = samples[i];
+  const cv::Mat left = node::view(frame, node::Eye::left);
+  ViewNode::Image image;
+  if (ring.size() >= kRing) {
+    image = std::move(ring.front());
+    ring.pop_front();
+  }
+  image.seq = frame.seq();
+  image.capture_time_ns = frame.capture_time_ns();
+  left.copyTo(image.left);  // reuses the buffer when the size is unchanged
+  if (!samples.still_valid(i)) return false;
+  ring.push_back(std::move(image));
+  return true;
+}
+
+}  // namespace
+
+ViewNode::ViewNode(transport::Participant& participant, ViewHub& hub, const ViewConfig& config,
+                   const std::string& service_name)
+    : hub_(hub),
+      config_(config),
+      fused_in_(participant, transport::topics::kFused, frame_reader_qos()),
+      visible_in_(participant, transport::topics::kRectifiedVisible, frame_reader_qos()),
+      infrared_in_(participant, transport::topics::kRectifiedInfrared, frame_reader_qos()),
+      detections_in_(participant, transport::topics::kDetections, transport::event_topic_qos()),
+      ranges_in_(participant, transport::topics::kRanges, transport::event_topic_qos()),
+      timing_in_(participant, transport::topics::kTiming, transport::event_topic_qos(64)),
+      health_in_(participant, transport::topics::kHealth, transport::state_topic_qos()),
+      display_out_(participant, transport::topics::kDisplay, display_writer_qos()),
+      health_(participant, service_name, [this] {
+        return std::vector<transport::TopicCountersSnapshot>{
+            fused_in_.counters(), ranges_in_.counters(), display_out_.counters()};
+      }) {
+  health_.set_state(HEALTH_STARTING, "waiting for fused frames");
+}
+
+void ViewNode::run() {
+  while (!node::stop_requested()) {
+    health_.tick();
+    // Ranges decide what is shown, so their arrival wakes the loop; frames are taken on every
+    // turn (at most a few ms apart, well inside the 2-sample history at 50 Hz).
+    ranges_in_.wait_for_data(std::chrono::milliseconds(4));
+    take_frames();
+    take_messages();
+    maybe_compose();
+    if (std::chrono::steady_clock::now() - last_status_ > std::chrono::milliseconds(250))
+      update_status_json();
+  }
+  hub_.stop();
+  health_.set_state(HEALTH_STOPPING, "composed " + std::to_string(stats_.composed));
+}
+
+void ViewNode::take_frames() {
+  const bool side = hub_.wanted(View::side_by_side);
+  struct Band {
+    transport::Reader<GridStereoFrame>& reader;
+    std::deque<Image>& ring;
+    bool wanted;
+    bool fused;
+  };
+  for (Band band : {Band{fused_in_, fused_, true, true},
+                    Band{visible_in_, visible_, side || hub_.wanted(View::visible), false},
+                    Band{infrared_in_, infrared_, side || hub_.wanted(View::infrared), false}}) {
+    auto samples = band.reader.take();
+    if (samples.empty()) continue;
+    if (band.fused) stats_.fused_frames += samples.size();
+    if (!band.wanted) continue;  // taken only to keep the history empty; loans go back now
+    try {
+      if (copy_newest(samples, band.ring)) {
+        ++stats_.copied;
+      } else {
+        ++stats_.overwritten;
+      }
+    } catch (const std::exception& e) {
+      health_.bad_input(band.reader.topic_name() + ": " + e.what());
+    }
+  }
+}
+
+void ViewNode::take_messages() {
+  const std::int64_t now = transport::now_ns();
+  auto ranges = ranges_in_.take();
+  for (std::size_t i = 0; i < ranges.size(); ++i) {
+    const RangeArray& a = ranges[i];
+    RangeResult r;
+    r.seq = a.frame_seq();
+    r.capture_time_ns = a.capture_time_ns();
+    r.received_ns = now;
+    r.latency_ms = transport::latency_ms(a.stamps(), a.capture_time_ns());
+    for (const TargetRange& t : a.targets()) r.targets.push_back(target_of(t));
+    ranges_.push_back(std::move(r));
+    ++stats_.range_arrays;
+    last_range_ns_ = now;
+  }
+  while (ranges_.size() > kKeptResults) ranges_.pop_front();
+
+  auto detections = detections_in_.take();
+  for (std::size_t i = 0; i < detections.size(); ++i) {
+    std::vector<display::Target> targets;
+    for (const Detection& d : detections[i].detections()) targets.push_back(target_of(d));
+    detections_[detections[i].frame_seq()] = std::move(targets);
+  }
+  while (detections_.size() > kKeptResults) detections_.erase(detections_.begin());
+
+  auto timing = timing_in_.take();
+  for (std::size_t i = 0; i < timing.size(); ++i) {
+    const double ms =
+        static_cast<double>(timing[i].output_time_ns() - timing[i].capture_time_ns()) / 1e6;
+    latency_.emplace_back(now, ms);
+    ++timing_frames_;
+    if (ms > config_.deadline_ms) ++over_deadline_;
+  }
+  const auto window_ns = static_cast<std::int64_t>(config_.history_s * 1e9);
+  while (!latency_.empty() && now - latency_.front().first > window_ns) latency_.pop_front();
+
+  auto health = health_in_.take();
+  for (std::size_t i = 0; i < health.size(); ++i) {
+    const std::string name = health[i].service().to_string();
+    services_[name] = health[i];
+    services_seen_ns_[name] = now;
+  }
+}
+
+const ViewNode::Image* ViewNode::find(const std::deque<Image>& ring, std::uint64_t seq) const {
+  for (auto it = ring.rbegin(); it != ring.rend(); ++it) {
+    if (it->seq == seq) return &*it;
+  }
+  return nullptr;
+}
+
+void ViewNode::maybe_compose() {
+  const auto now = std::chrono::steady_clock::now();
+  if (now - last_compose_ < std::chrono::duration<double>(1.0 / config_.max_fps)) return;
+  // The newest range result whose fused frame is held; older results are skipped.
+  for (auto it = ranges_.rbegin(); it != ranges_.rend() && it->seq > last_composed_seq_; ++it) {
+    if (const Image* fused = find(fused_, it->seq)) {
+      compose(*fused, &*it, "");
+      return;
+    }
+  }
+  // No range result to show (detection or ranging stalled, or not started): the newest fused
+  // frame with its detections, so the picture stays live.
+  if (fused_.empty() || fused_.back().seq <= last_composed_seq_) return;
+  const double silent_s = static_cast<double>(transport::now_ns() - last_range_ns_) / 1e9;
+  if (last_range_ns_ != 0 && silent_s < config_.stale_ranges_s) return;
+  char note[64];
+  if (last_range_ns_ == 0) {
+    std::snprintf(note, sizeof note, "waiting for ranges");
+  } else {
+    std::snprintf(note, sizeof note, "no ranges for %.1f s", silent_s);
+  }
+  compose(fused_.back(), nullptr, note);
+}
+
+void ViewNode::compose(const Image& fused, const RangeResult* ranges, const std::string& note) {
+  last_compose_ = std::chrono::steady_clock::now();
+  last_composed_seq_ = fused.seq;
+  display::Status status;
+  status.frame_seq = fused.seq;
+  status.capture_time_ns = fused.capture_time_ns;
+  status.latency_ms = ranges != nullptr ? ranges->latency_ms : std::nan("");
+  status.deadline_ms = config_.deadline_ms;
+  status.frames = timing_frames_;
+  status.over_deadline = over_deadline_;
+  for (const auto& [name, h] : services_) {
+    for (const TopicHealth& t : h.topics())
+      status.deadline_misses += t.requested_deadline_missed() + t.offered_deadline_missed();
+  }
+  status.note = note;
+  std::vector<display::Target> targets;
+  if (ranges != nullptr) {
+    targets = ranges->targets;
+  } else if (const auto d = detections_.find(fused.seq); d != detections_.end()) {
+    targets = d->second;
+  }
+
+  try {
+    const cv::Mat image = display::compose(fused.left, targets, status);
+    ++stats_.composed;
+    health_.frame_processed();
+    // thermovis/display: the fusion-ranging image for other DDS applications.
+    auto loan = display_out_.loan();
+    loan->seq(fused.seq);
+    loan->capture_time_ns(fused.capture_time_ns);
+    transport::clear_stamps(loan->stamps());
+    image.copyTo(node::prepare(*loan, node::Eye::left, image.size(), CV_8UC3));
+    node::prepare(*loan, node::Eye::right, image.size(), CV_8UC3).setTo(cv::Scalar::all(0));
+    loan->step(static_cast<std::uint32_t>(image.cols * 3));
+    display_out_.publish(std::move(loan));
+    ++stats_.published;
+
+    const std::vector<int> params{cv::IMWRITE_JPEG_QUALITY, config_.jpeg_quality};
+    const auto encode = [&](View view, const cv::Mat& composed) {
+      auto frame = std::make_shared<EncodedFrame>();
+      std::vector<unsigned char> buffer;
+      cv::imencode(".jpg", composed, buffer, params);
+      frame->jpeg.assign(buffer.begin(), buffer.end());
+      frame->number = ++encoded_number_[static_cast<std::size_t>(view)];
+      frame->seq = fused.seq;
+      frame->capture_time_ns = fused.capture_time_ns;
+      frame->encoded_ns = transport::now_ns();
+      ++stats_.encoded;
+      if (view == View::fused) {
+        hub_.note_composed(fused.capture_time_ns,
+                           ranges != nullptr ? ranges->received_ns : frame->encoded_ns,
+                           frame->encoded_ns);
+      }
+      hub_.publish(view, std::move(frame));
+    };
+    if (hub_.wanted(View::fused)) encode(View::fused, image);
+    const Image* visible = find(visible_, fused.seq);
+    const Image* infrared = find(infrared_, fused.seq);
+    cv::Mat infrared_8;
+    if (infrared != nullptr) infrared_8 = agc_.process(infrared->left);
+    if (visible != nullptr && hub_.wanted(View::visible))
+      encode(View::visible, display::compose(visible->left, targets, status));
+    if (infrared != nullptr && hub_.wanted(View::infrared))
+      encode(View::infrared, display::compose(infrared_8, targets, status));
+    if (visible != nullptr && infrared != nullptr && hub_.wanted(View::side_by_side)) {
+      encode(View::side_by_side,
+             display::compose_side_by_side(visible->left, infrared_8, fused.left, targets, status,
+                                           config_.panel_scale));
+    }
+  } catch (const std::exception& e) {
+    health_.bad_input(std::string("composing frame ") + std::to_string(fused.seq) + ": " +
+                      e.what());
+    return;
+  }
+
+  nlohmann::json list = nlohmann::json::array();
+  for (const display::Target& t : targets) {
+    list.push_back({{"id", t.id},
+                    {"label", t.label},
+                    {"ranged", std::isfinite(t.distance_m)},
+                    {"distance_m", finite_or_null(t.distance_m)},
+                    {"sigma_m", t.sigma_m},
+                    {"band", display::band_name(t.band)},
+                    {"points", t.points},
+                    {"box", {t.box.x, t.box.y, t.box.width, t.box.height}}});
+  }
+  hub_.set_targets_json(nlohmann::json{
+      {"frame_seq", fused.seq},
+      {"capture_time_ns", fused.capture_time_ns},
+      {"latency_ms", finite_or_null(status.latency_ms)},
+      {"note", note},
+      {"targets", list}}.dump());
+}
+
+void ViewNode::update_status_json() {
+  last_status_ = std::chrono::steady_clock::now();
+  const std::int64_t now = transport::now_ns();
+  nlohmann::json latency = nlohmann::json::array();
+  for (const auto& [at, ms] : latency_)
+    latency.push_back({static_cast<double>(at - now) / 1e9, ms});
+  nlohmann::json services = nlohmann::json::array();
+  std::uint64_t misses = 0;
+  for (const auto& [name, h] : services_) {
+    std::uint64_t service_misses = 0;
+    for (const TopicHealth& t : h.topics())
+      service_misses += t.requested_deadline_missed() + t.offered_deadline_missed();
+    misses += service_misses;
+    services.push_back({{"service", name},
+                        {"state", state_name(h.state())},
+                        {"frames", h.frames_processed()},
+                        {"errors", h.errors()},
+                        {"deadline_misses", service_misses},
+                        {"message", h.message().to_string()},
+                        {"age_s", static_cast<double>(now - services_seen_ns_[name]) / 1e9}});
+  }
+  hub_.set_status_json(nlohmann::json{{"time_ns", now},
+                                      {"deadline_ms", config_.deadline_ms},
+                                      {"history_s", config_.history_s},
+                                      {"frames", timing_frames_},
+                                      {"over_deadline", over_deadline_},
+                                      {"deadline_misses", misses},
+                                      {"latency", latency},
+                                      {"health", services},
+                                      {"view",
+                                       {{"fused_frames", stats_.fused_frames},
+                                        {"copied", stats_.copied},
+                                        {"overwritten", stats_.overwritten},
+                                        {"range_arrays", stats_.range_arrays},
+                                        {"composed", stats_.composed},
+                                        {"encoded", stats_.encoded},
+                                        {"published", stats_.published}}}}
+                           .dump());
+}
+
+}  // namespace thermovis::view

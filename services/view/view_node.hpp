@@ -1,0 +1,108 @@
+#pragma once
+// thermovis-view's DDS side: reads the fused and rectified frames, detections, ranges, timing
+// and health; composes the fusion-ranging image (display::compose) at a bounded rate, publishes
+// it on thermovis/display and encodes the views web clients ask for into the ViewHub.
+//
+// It must never slow the pipeline: frame readers keep the last 2 samples and this loop takes
+// them all, copies only the newest left image of the bands some view needs (a fraction of a
+// millisecond) and gives the loans back at once; composing and encoding happen at most
+// `max_fps` times a second, from the newest range result whose fused frame it holds (older ones
+// are skipped). HTTP clients never touch this loop.
+#include <chrono>
+#include <cstdint>
+#include <deque>
+#include <map>
+#include <string>
+#include <vector>
+
+#include <opencv2/core/mat.hpp>
+
+#include "thermovis/display/ranging_image.hpp"
+#include "thermovis/enhance/infrared_agc.hpp"
+#include "thermovis/frames.h"
+#include "thermovis/health.h"
+#include "thermovis/node/health.hpp"
+#include "thermovis/perception.h"
+#include "thermovis/transport/reader.hpp"
+#include "thermovis/transport/writer.hpp"
+#include "view_hub.hpp"
+
+namespace thermovis::view {
+
+struct ViewConfig {
+  double max_fps = 15.0;        // compositions (and encodes per wanted view) per second
+  int jpeg_quality = 80;        // 0..100
+  double deadline_ms = 20.0;    // the latency budget drawn and counted
+  double history_s = 10.0;      // latency plot window
+  double panel_scale = 0.5;     // side-by-side panels
+  double stale_ranges_s = 0.5;  // without ranges this long, show the newest fused frame bare
+};
+
+struct ViewStats {
+  std::uint64_t fused_frames = 0;  // fused frames received
+  std::uint64_t copied = 0;        // left images copied out of loans
+  std::uint64_t overwritten = 0;   // loans reused by the writer while copied (dropped)
+  std::uint64_t range_arrays = 0;  // range results received
+  std::uint64_t composed = 0;      // fusion-ranging images made
+  std::uint64_t encoded = 0;       // JPEGs made (all views)
+  std::uint64_t published = 0;     // thermovis/display samples
+};
+
+class ViewNode {
+ public:
+  ViewNode(transport::Participant& participant, ViewHub& hub, const ViewConfig& config,
+           const std::string& service_name);
+  void run();  // until node::stop_requested()
+  ViewStats stats() const { return stats_; }
+
+  // One band's left image of one frame, copied out of its loan.
+  struct Image {
+    std::uint64_t seq = 0;
+    std::int64_t capture_time_ns = 0;
+    cv::Mat left;
+  };
+
+ private:
+  struct RangeResult {
+    std::uint64_t seq = 0;
+    std::int64_t capture_time_ns = 0;
+    std::int64_t received_ns = 0;
+    double latency_ms = 0.0;
+    std::vector<display::Target> targets;
+  };
+
+  void take_frames();
+  void take_messages();
+  void maybe_compose();
+  void compose(const Image& fused, const RangeResult* ranges, const std::string& note);
+  const Image* find(const std::deque<Image>& ring, std::uint64_t seq) const;
+  void update_status_json();
+
+  ViewHub& hub_;
+  ViewConfig config_;
+  transport::Reader<GridStereoFrame> fused_in_, visible_in_, infrared_in_;
+  transport::Reader<DetectionArray> detections_in_;
+  transport::Reader<RangeArray> ranges_in_;
+  transport::Reader<FrameTiming> timing_in_;
+  transport::Reader<Health> health_in_;
+  transport::Writer<GridStereoFrame> display_out_;
+  node::HealthReporter health_;
+  enhance::InfraredAgc agc_;
+
+  std::deque<Image> fused_, visible_, infrared_;  // newest last, a few frames each
+  std::deque<RangeResult> ranges_;                // newest last
+  std::map<std::uint64_t, std::vector<display::Target>> detections_;  // by seq, a few
+  std::uint64_t last_composed_seq_ = 0;
+  std::chrono::steady_clock::time_point last_compose_{};
+  std::int64_t last_range_ns_ = 0;
+  std::uint64_t encoded_number_[ViewHub::kViews] = {};
+  // Latency history from thermovis/timing: (receive time, capture-to-output ms).
+  std::deque<std::pair<std::int64_t, double>> latency_;
+  std::uint64_t timing_frames_ = 0, over_deadline_ = 0;
+  std::map<std::string, Health> services_;
+  std::map<std::string, std::int64_t> services_seen_ns_;
+  std::chrono::steady_clock::time_point last_status_{};
+  ViewStats stats_;
+};
+
+}  // namespace thermovis::view
