@@ -1,5 +1,6 @@
 #include "thermovis/camera/ocam_io.hpp"
 
+#include <cmath>
 #include <fstream>
 #include <iomanip>
 #include <sstream>
@@ -42,15 +43,26 @@ std::vector<double> counted(const std::string& line, const std::string& source,
                             const std::string& block) {
   auto values = numbers(line, source, block);
   if (values.empty()) throw std::runtime_error(source + ": " + block + ": empty line");
-  const auto count = static_cast<size_t>(values.front());
-  if (values.front() < 1 || values.front() != static_cast<double>(count) ||
-      values.size() != count + 1) {
+  // The count is compared as a double: converting a negative, huge or non-finite value to an
+  // integer first would be undefined.
+  if (!(values.front() == static_cast<double>(values.size() - 1))) {
     throw std::runtime_error(source + ": " + block + ": count " + std::to_string(values.front()) +
                              " does not match the " + std::to_string(values.size() - 1) +
                              " coefficients given");
   }
+  if (values.size() < 2) throw std::runtime_error(source + ": " + block + ": no coefficients");
   values.erase(values.begin());
   return values;
+}
+
+// A side of the image: a whole number of pixels in 1..kMaxImageSide.
+int image_side(double value, const std::string& source, const char* name) {
+  if (!(value >= 1 && value <= kMaxImageSide) || value != std::floor(value)) {
+    throw std::runtime_error(source + ": image size: " + name + " " + std::to_string(value) +
+                             " is not a whole number of pixels in 1.." +
+                             std::to_string(kMaxImageSide));
+  }
+  return static_cast<int>(value);
 }
 
 }  // namespace
@@ -78,8 +90,8 @@ TaylorIntrinsics parse_ocam_calib_results(std::istream& in, const std::string& s
   intr.c = affine[0];
   intr.d = affine[1];
   intr.e = affine[2];
-  intr.height = static_cast<int>(size[0]);
-  intr.width = static_cast<int>(size[1]);
+  intr.height = image_side(size[0], source_name, "height");
+  intr.width = image_side(size[1], source_name, "width");
   try {
     TaylorCamera check(intr);  // validates every value
   } catch (const std::exception& e) {

@@ -38,6 +38,9 @@ double corner_radius(const TaylorIntrinsics& in) {
 
 TaylorCamera::TaylorCamera(TaylorIntrinsics intrinsics) : intr_(std::move(intrinsics)) {
   require(intr_.width > 0 && intr_.height > 0, "image size must be positive");
+  require(intr_.width <= kMaxImageSide && intr_.height <= kMaxImageSide,
+          "image size " + std::to_string(intr_.width) + "x" + std::to_string(intr_.height) +
+              " is over " + std::to_string(kMaxImageSide) + " px a side");
   require(intr_.pol.size() >= 2, "polynomial needs at least a0 and a1");
   for (double a : intr_.pol) require(std::isfinite(a), "polynomial coefficient is not finite");
   for (double a : intr_.invpol)

@@ -11,22 +11,53 @@ std::string size_text(std::uint32_t width, std::uint32_t height) {
 }
 
 // Checks the header of a frame against its array capacity; returns the Mat type.
-int checked_type(const char* what, std::uint64_t seq, PixelFormat format, std::uint32_t width,
-                 std::uint32_t height, std::size_t capacity_bytes, PixelFormat expected = 0) {
-  const std::string frame = std::string(what) + " frame " + std::to_string(seq);
+template <class Frame>
+int checked_type(const char* what, const Frame& f, std::size_t capacity_bytes,
+                 PixelFormat expected = 0) {
+  const std::string frame = std::string(what) + " frame " + std::to_string(f.seq());
+  const PixelFormat format = f.pixel_format();
   if (expected != 0 && format != expected) {
     throw FrameError(frame + ": pixel format " + std::to_string(format) + ", expected " +
                      std::to_string(expected));
   }
-  const int type = cv_type_of(format);
+  int type = 0;
+  try {
+    type = cv_type_of(format);
+  } catch (const FrameError& e) {
+    throw FrameError(frame + ": " + e.what());
+  }
+  const std::uint32_t width = f.width(), height = f.height();
   if (width == 0 || height == 0)
     throw FrameError(frame + ": empty image " + size_text(width, height));
-  const std::size_t bytes = std::size_t{width} * height * CV_ELEM_SIZE(type);
-  if (bytes > capacity_bytes) {
+  const std::size_t row_bytes = std::size_t{width} * CV_ELEM_SIZE(type);
+  if (row_bytes * height > capacity_bytes) {
     throw FrameError(frame + ": " + size_text(width, height) + " image does not fit the " +
                      std::to_string(capacity_bytes) + "-byte array of the type");
   }
+  // Rows are packed; a writer that says otherwise lays its pixels out in a way this reader
+  // would misread.
+  if (f.step() != row_bytes) {
+    throw FrameError(frame + ": step " + std::to_string(f.step()) +
+                     " bytes, the packed rows of a " + size_text(width, height) + " image are " +
+                     std::to_string(row_bytes));
+  }
   return type;
+}
+
+// Bytes of a packed row of the frame's header (0 for an unknown pixel format, which view()
+// then names).
+template <class Frame>
+std::size_t packed_step(const Frame& f) {
+  switch (f.pixel_format()) {
+    case PIXEL_FORMAT_BGR8:
+      return std::size_t{f.width()} * 3;
+    case PIXEL_FORMAT_MONO8:
+      return f.width();
+    case PIXEL_FORMAT_MONO16:
+      return std::size_t{f.width()} * 2;
+    default:
+      return 0;
+  }
 }
 
 template <class Array>
@@ -63,22 +94,20 @@ PixelFormat pixel_format_of(int cv_type) {
 }
 
 cv::Mat view(const VisibleStereoFrame& f, Eye eye) {
-  const int type = checked_type("visible", f.seq(), f.pixel_format(), f.width(), f.height(),
-                                f.left().size(), PIXEL_FORMAT_BGR8);
+  const int type = checked_type("visible", f, f.left().size(), PIXEL_FORMAT_BGR8);
   return cv::Mat(static_cast<int>(f.height()), static_cast<int>(f.width()), type,
                  eye_data(f.left(), f.right(), eye));
 }
 
 cv::Mat view(const InfraredStereoFrame& f, Eye eye) {
-  const int type = checked_type("infrared", f.seq(), f.pixel_format(), f.width(), f.height(),
-                                f.left().size() * sizeof(std::uint16_t), PIXEL_FORMAT_MONO16);
+  const int type =
+      checked_type("infrared", f, f.left().size() * sizeof(std::uint16_t), PIXEL_FORMAT_MONO16);
   return cv::Mat(static_cast<int>(f.height()), static_cast<int>(f.width()), type,
                  eye_data(f.left(), f.right(), eye));
 }
 
 cv::Mat view(const GridStereoFrame& f, Eye eye) {
-  const int type =
-      checked_type("grid", f.seq(), f.pixel_format(), f.width(), f.height(), f.left().size());
+  const int type = checked_type("grid", f, f.left().size());
   return cv::Mat(static_cast<int>(f.height()), static_cast<int>(f.width()), type,
                  eye_data(f.left(), f.right(), eye));
 }
@@ -87,6 +116,7 @@ cv::Mat prepare(VisibleStereoFrame& f, Eye eye, cv::Size size) {
   f.pixel_format(PIXEL_FORMAT_BGR8);
   f.width(static_cast<std::uint32_t>(size.width));
   f.height(static_cast<std::uint32_t>(size.height));
+  f.step(static_cast<std::uint32_t>(packed_step(f)));
   return view(f, eye);
 }
 
@@ -94,6 +124,7 @@ cv::Mat prepare(InfraredStereoFrame& f, Eye eye, cv::Size size) {
   f.pixel_format(PIXEL_FORMAT_MONO16);
   f.width(static_cast<std::uint32_t>(size.width));
   f.height(static_cast<std::uint32_t>(size.height));
+  f.step(static_cast<std::uint32_t>(packed_step(f)));
   return view(f, eye);
 }
 
@@ -101,6 +132,7 @@ cv::Mat prepare(GridStereoFrame& f, Eye eye, cv::Size size, int cv_type) {
   f.pixel_format(pixel_format_of(cv_type));
   f.width(static_cast<std::uint32_t>(size.width));
   f.height(static_cast<std::uint32_t>(size.height));
+  f.step(static_cast<std::uint32_t>(packed_step(f)));
   return view(f, eye);
 }
 

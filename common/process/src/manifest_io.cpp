@@ -13,9 +13,27 @@ using runtime::ConfigError;
 using runtime::require;
 using runtime::where;
 
+namespace {
+
+// Durations are turned into clock deadlines (integer nanoseconds): a day is far beyond any
+// sensible restart delay or grace, and keeps the conversion in range.
+constexpr double kMaxSeconds = 86400.0;
+
+double seconds(const std::string& src, const YAML::Node& node, const std::string& context) {
+  const double value = as_double(src, node, context);
+  if (!(value > 0.0 && value <= kMaxSeconds)) {
+    throw ConfigError(where(src, node) + ": " + context + ": " + node.Scalar() +
+                      " s is not in (0, 86400] s");
+  }
+  return value;
+}
+
+}  // namespace
+
 Manifest parse_manifest(const std::string& yaml_text, const std::string& src) {
   const YAML::Node root = runtime::parse_yaml(yaml_text, src);
-  if (!root || !root.IsMap()) throw ConfigError(src + ": expected a manifest map");
+  if (!root || root.IsNull()) throw ConfigError(src + ": empty manifest file");
+  if (!root.IsMap()) throw ConfigError(src + ": expected a manifest map");
   check_keys(src, root, "manifest", {"name", "services"});
   Manifest manifest;
   manifest.name = root["name"] ? as_string(src, root["name"], "name") : "pipeline";
@@ -42,7 +60,8 @@ Manifest parse_manifest(const std::string& yaml_text, const std::string& src) {
       if (!node["env"].IsMap())
         throw ConfigError(where(src, node["env"]) + ": " + ctx + ".env: expected a map");
       for (const auto& kv : node["env"]) {
-        spec.env[kv.first.as<std::string>()] = as_string(src, kv.second, ctx + ".env");
+        spec.env[runtime::as_key(src, kv.first, ctx + ".env")] =
+            as_string(src, kv.second, ctx + ".env");
       }
     }
     if (node["restart"]) {
@@ -59,26 +78,23 @@ Manifest parse_manifest(const std::string& yaml_text, const std::string& src) {
       }
     }
     if (node["depends_on"]) {
-      for (const auto& dep : node["depends_on"])
+      for (const auto& dep : runtime::as_list(src, node["depends_on"], ctx + ".depends_on"))
         spec.depends_on.push_back(as_string(src, dep, ctx + ".depends_on"));
     }
     if (node["backoff"]) {
       const YAML::Node b = node["backoff"];
       check_keys(src, b, ctx + ".backoff", {"initial_s", "max_s", "stable_after_s"});
       if (b["initial_s"])
-        spec.backoff_initial_s = as_double(src, b["initial_s"], ctx + ".backoff.initial_s");
-      if (b["max_s"]) spec.backoff_max_s = as_double(src, b["max_s"], ctx + ".backoff.max_s");
+        spec.backoff_initial_s = seconds(src, b["initial_s"], ctx + ".backoff.initial_s");
+      if (b["max_s"]) spec.backoff_max_s = seconds(src, b["max_s"], ctx + ".backoff.max_s");
       if (b["stable_after_s"])
-        spec.stable_after_s = as_double(src, b["stable_after_s"], ctx + ".backoff.stable_after_s");
+        spec.stable_after_s = seconds(src, b["stable_after_s"], ctx + ".backoff.stable_after_s");
       if (spec.backoff_initial_s <= 0 || spec.backoff_max_s < spec.backoff_initial_s) {
         throw ConfigError(where(src, b) + ": " + ctx + ".backoff: need 0 < initial_s <= max_s");
       }
     }
     if (node["stop_timeout_s"]) {
-      spec.stop_timeout_s = as_double(src, node["stop_timeout_s"], ctx + ".stop_timeout_s");
-      if (spec.stop_timeout_s <= 0)
-        throw ConfigError(where(src, node["stop_timeout_s"]) + ": " + ctx +
-                          ".stop_timeout_s: must be positive");
+      spec.stop_timeout_s = seconds(src, node["stop_timeout_s"], ctx + ".stop_timeout_s");
     }
     manifest.services.push_back(std::move(spec));
   }

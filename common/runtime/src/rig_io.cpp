@@ -3,6 +3,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <Eigen/SVD>
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <map>
@@ -32,12 +33,16 @@ TaylorIntrinsics taylor_from_node(const std::string& src, const YAML::Node& mode
   }
   TaylorIntrinsics in;
   const auto size = as_doubles(src, require(src, model, ctx, "image_size"), ctx + ".image_size", 2);
+  // Checked as doubles: converting a huge value to int first would be undefined.
+  for (const double side : size) {
+    if (!(side >= 1 && side <= camera::kMaxImageSide) || side != std::floor(side)) {
+      throw ConfigError(where(src, model["image_size"]) + ": " + ctx +
+                        ".image_size: expected two whole numbers of pixels in 1.." +
+                        std::to_string(camera::kMaxImageSide) + " [width, height]");
+    }
+  }
   in.width = static_cast<int>(size[0]);
   in.height = static_cast<int>(size[1]);
-  if (in.width <= 0 || in.height <= 0 || in.width != size[0] || in.height != size[1]) {
-    throw ConfigError(where(src, model["image_size"]) + ": " + ctx +
-                      ".image_size: expected two positive integers [width, height]");
-  }
   const auto centre =
       as_doubles(src, require(src, model, ctx, "centre_row_col"), ctx + ".centre_row_col", 2);
   in.xc = centre[0];
@@ -48,12 +53,20 @@ TaylorIntrinsics taylor_from_node(const std::string& src, const YAML::Node& mode
   in.e = cde[2];
   in.pol = as_doubles(src, require(src, model, ctx, "pol"), ctx + ".pol");
   if (model["invpol"]) in.invpol = as_doubles(src, model["invpol"], ctx + ".invpol");
+  return in;
+}
+
+// The camera of a `model:` block; its constructor validates the values (and fits the inverse
+// polynomial when none is given, once: the rig keeps this camera).
+std::shared_ptr<camera::TaylorCamera> checked_camera(const std::string& src,
+                                                     const YAML::Node& model,
+                                                     const std::string& ctx) {
+  TaylorIntrinsics in = taylor_from_node(src, model, ctx);
   try {
-    camera::TaylorCamera check(in);
+    return std::make_shared<camera::TaylorCamera>(std::move(in));
   } catch (const std::exception& e) {
     throw ConfigError(where(src, model) + ": " + ctx + ": " + e.what());
   }
-  return in;
 }
 
 void emit_taylor(YAML::Emitter& out, const TaylorIntrinsics& in) {
@@ -97,13 +110,14 @@ Rig parse_rig(const std::string& yaml_text, const std::string& src) {
   rig.name = as_string(src, require(src, root, "rig", "name"), "name");
   rig.reference = as_string(src, require(src, root, "rig", "reference"), "reference");
   if (root["notes"]) {
-    for (const auto& note : root["notes"]) rig.notes.push_back(as_string(src, note, "notes"));
+    for (const auto& note : as_list(src, root["notes"], "notes"))
+      rig.notes.push_back(as_string(src, note, "notes"));
   }
   const YAML::Node cams = require(src, root, "rig", "cameras");
   if (!cams.IsMap() || cams.size() == 0)
     throw ConfigError(where(src, cams) + ": cameras: expected a map of cameras");
   for (const auto& item : cams) {
-    const std::string name = item.first.as<std::string>();
+    const std::string name = as_key(src, item.first, "cameras");
     const std::string ctx = "cameras." + name;
     const YAML::Node node = item.second;
     check_keys(src, node, ctx, {"band", "pixel_pitch_um", "bit_depth", "model"});
@@ -122,8 +136,7 @@ Rig parse_rig(const std::string& yaml_text, const std::string& src) {
     cam.bit_depth = node["bit_depth"] ? as_int(src, node["bit_depth"], ctx + ".bit_depth") : 8;
     if (cam.bit_depth < 1 || cam.bit_depth > 16)
       throw ConfigError(where(src, node["bit_depth"]) + ": " + ctx + ".bit_depth: must be 1..16");
-    cam.model = std::make_shared<camera::TaylorCamera>(
-        taylor_from_node(src, require(src, node, ctx, "model"), ctx + ".model"));
+    cam.model = checked_camera(src, require(src, node, ctx, "model"), ctx + ".model");
     rig.cameras.push_back(std::move(cam));
   }
   if (!rig.has_camera(rig.reference)) {
@@ -265,8 +278,10 @@ camera::TaylorIntrinsics parse_taylor_yaml(const std::string& yaml_text, const s
   const YAML::Node root = parse_yaml(yaml_text, src);
   if (!root || !root.IsMap()) throw ConfigError(src + ": expected a camera model map");
   // Accept either the model block itself or a camera entry holding `model:`.
-  if (root["model"]) return taylor_from_node(src, root["model"], "model");
-  return taylor_from_node(src, root, "model");
+  const YAML::Node model = root["model"] ? root["model"] : root;
+  // The intrinsics as written (an absent invpol stays absent); the camera only checks them.
+  checked_camera(src, model, "model");
+  return taylor_from_node(src, model, "model");
 }
 
 camera::TaylorIntrinsics load_taylor_yaml(const std::filesystem::path& path) {

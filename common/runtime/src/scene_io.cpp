@@ -160,7 +160,7 @@ Scene parse_scene(const std::string& yaml_text, const std::string& src) {
   if (const YAML::Node textures = root["textures"]) {
     if (!textures.IsMap()) throw ConfigError(where(src, textures) + ": textures: expected a map");
     for (const auto& item : textures)
-      read_texture(r, item.first.as<std::string>(), item.second, scene);
+      read_texture(r, as_key(src, item.first, "textures"), item.second, scene);
   }
   if (const YAML::Node v = root["visible"]) {
     check_keys(src, v, "visible",

@@ -16,7 +16,7 @@ void check_keys(const std::string& source, const YAML::Node& node, const std::st
                 std::initializer_list<const char*> allowed) {
   if (!node.IsMap()) throw ConfigError(where(source, node) + ": " + context + ": expected a map");
   for (const auto& item : node) {
-    const std::string key = item.first.as<std::string>();
+    const std::string key = as_key(source, item.first, context);
     bool known = false;
     for (const char* name : allowed) known = known || key == name;
     if (!known) {
@@ -35,6 +35,19 @@ YAML::Node require(const std::string& source, const YAML::Node& node, const std:
   if (!child)
     throw ConfigError(where(source, node) + ": " + context + ": missing key '" + key + "'");
   return child;
+}
+
+std::string as_key(const std::string& source, const YAML::Node& key, const std::string& context) {
+  if (!key.IsScalar())
+    throw ConfigError(where(source, key) + ": " + context + ": a key must be a plain name");
+  return key.Scalar();
+}
+
+std::vector<YAML::Node> as_list(const std::string& source, const YAML::Node& node,
+                                const std::string& context) {
+  if (!node.IsSequence())
+    throw ConfigError(where(source, node) + ": " + context + ": expected a list");
+  return std::vector<YAML::Node>(node.begin(), node.end());
 }
 
 double as_double(const std::string& source, const YAML::Node& node, const std::string& context) {

@@ -18,6 +18,10 @@
 
 namespace thermovis::camera {
 
+// The largest image side a camera model accepts, px: far beyond any sensor (the paper's is 1920),
+// small enough that maps and frames of that size can still be allocated.
+inline constexpr int kMaxImageSide = 16384;
+
 struct TaylorIntrinsics {
   int width = 0;                     // image width, px
   int height = 0;                    // image height, px

@@ -20,7 +20,9 @@ enum class Eye { left, right };
 int cv_type_of(PixelFormat format);
 PixelFormat pixel_format_of(int cv_type);
 
-// Read-only views of received frames (FrameError when width/height/format are impossible).
+// Read-only views of received frames. FrameError, naming the frame and its seq, when the pixel
+// format is unknown (or not the type's), the image is empty or does not fit the type's array, or
+// `step` is not the packed row (width x bytes per pixel: rows are never padded).
 cv::Mat view(const VisibleStereoFrame& frame, Eye eye);
 cv::Mat view(const InfraredStereoFrame& frame, Eye eye);
 cv::Mat view(const GridStereoFrame& frame, Eye eye);
@@ -28,7 +30,7 @@ cv::Mat view(const GridStereoFrame& frame, Eye eye);
 // service of a pipeline must use the same grid options).
 cv::Mat view(const GridStereoFrame& frame, Eye eye, cv::Size grid);
 
-// Writable views into frames being filled (e.g. a loaned sample): sets width, height and
+// Writable views into frames being filled (e.g. a loaned sample): sets width, height, step and
 // pixel_format, returns the Mat to render or copy into. FrameError when `size` does not fit.
 cv::Mat prepare(VisibleStereoFrame& frame, Eye eye, cv::Size size);
 cv::Mat prepare(InfraredStereoFrame& frame, Eye eye, cv::Size size);

@@ -26,6 +26,15 @@ void check_keys(const std::string& source, const YAML::Node& node, const std::st
 YAML::Node require(const std::string& source, const YAML::Node& node, const std::string& context,
                    const std::string& key);
 
+// The key of a map entry (`item.first`); ConfigError unless it is a plain scalar (YAML allows
+// lists and maps as keys, which no thermovis file uses).
+std::string as_key(const std::string& source, const YAML::Node& key, const std::string& context);
+
+// The elements of a list; ConfigError unless `node` is a sequence (iterating a map or a scalar
+// instead would silently read nothing or key/value pairs).
+std::vector<YAML::Node> as_list(const std::string& source, const YAML::Node& node,
+                                const std::string& context);
+
 // Converts with a clear message on failure ("expected a number", ...).
 double as_double(const std::string& source, const YAML::Node& node, const std::string& context);
 int as_int(const std::string& source, const YAML::Node& node, const std::string& context);
