@@ -133,6 +133,11 @@ void MatchNode::take_frames(BandInput& input) {
     const GridStereoFrame& frame = frames[i];
     try {
       if (!input.pairs.empty() && frame.seq() <= input.pairs.back().seq) continue;  // repeated
+      if (frame.eyes() == EYES_LEFT) {
+        throw node::FrameError("frame " + std::to_string(frame.seq()) +
+                               " carries the left eye only (thermovis-rectify-fuse fuses the "
+                               "right eye with --fused-eyes both)");
+      }
       Pair pair;
       pair.seq = frame.seq();
       pair.left = grey_copy(node::view(frame, node::Eye::left, grid_size_));

@@ -19,6 +19,15 @@ int main(int argc, char** argv) {
   node::add_grid_options(app, config.grid);
   app.add_option("--fusion", method, "fast | vsmwls | vsmwls-paper")->capture_default_str();
   app.add_flag("--no-enhance", no_enhance, "skip the visible contrast enhancement");
+  std::string fused_eyes = "left";
+  app.add_option("--fused-eyes", fused_eyes,
+                 "left (the display's) | both (needed by thermovis-match --band fused)")
+      ->check(CLI::IsMember({"left", "both"}))
+      ->capture_default_str();
+  bool sequential = false;
+  app.add_flag("--sequential", sequential,
+               "rectify the visible pair after the infrared one on this thread (default: on a "
+               "second thread at the same time)");
   app.add_option("--deadline-ms", deadline_ms, "DEADLINE QoS period")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
@@ -28,7 +37,9 @@ int main(int argc, char** argv) {
     const auto parsed = fuse::method_from_name(method);
     if (!parsed) throw std::invalid_argument("unknown fusion method '" + method + "'");
     config.fusion.method = *parsed;
-    config.enhance_visible = !no_enhance;
+    if (no_enhance) config.fusion.enhance_visible.reset();
+    config.fuse_right_eye = fused_eyes == "both";
+    config.parallel_bands = !sequential;
     config.deadline = std::chrono::nanoseconds(static_cast<std::int64_t>(deadline_ms * 1e6));
     const auto rig =
         runtime::load_rig(common.rig.empty() ? runtime::default_rig_path() : common.rig);

@@ -1,5 +1,7 @@
 #include "rectify_fuse_node.hpp"
 
+#include <future>
+
 #include "thermovis/node/frame_codec.hpp"
 #include "thermovis/node/service.hpp"
 #include "thermovis/transport/clock.hpp"
@@ -118,37 +120,51 @@ void RectifyFuseNode::process(const VisibleStereoFrame& visible,
   auto out_infrared = rectified_infrared_out_.loan();
   auto out_fused = fused_out_.loan();
   // The rectified pairs first, infrared before visible: detection works on the infrared alone
-  // and starts while the visible pair is rectified; matching needs both. The fusion, which only
-  // the display and fused-band matching need, comes last.
+  // and starts while the visible pair is rectified; matching needs both. The visible pair is
+  // rectified on a second thread meanwhile (its remap costs more than the infrared's), so both
+  // pairs are out after the longer of the two. The fusion, which only the display and
+  // fused-band matching need, comes last.
   std::array<cv::Mat, 2> rect_visible, rect_infrared;
+  const auto rectify_visible = [&] {
+    for (const Eye eye : {Eye::left, Eye::right}) {
+      const int i = eye == Eye::left ? 0 : 1;
+      // view() checks the headers; the remappers check the sizes against the rig's cameras.
+      rect_visible[i] = node::prepare(*out_visible, eye, grid_size_, CV_8UC3);
+      visible_maps_[i]->remap(node::view(visible, eye), rect_visible[i]);
+    }
+    out_visible->eyes(EYES_BOTH);
+  };
+  std::future<void> visible_done;
+  if (config_.parallel_bands) visible_done = std::async(std::launch::async, rectify_visible);
   for (const Eye eye : {Eye::left, Eye::right}) {
     const int i = eye == Eye::left ? 0 : 1;
-    // view() checks the headers; the remappers check the sizes against the rig's cameras.
     // The rectified infrared keeps its raw counts (detection thresholds on temperature, not on
     // equalised grey levels); the gain-controlled image goes into the fusion.
     rect_infrared[i] = node::prepare(*out_infrared, eye, grid_size_, CV_16UC1);
     infrared_maps_[i]->remap(node::view(infrared, eye), rect_infrared[i]);
   }
+  out_infrared->eyes(EYES_BOTH);
   copy_header(visible, *out_infrared, start_ns);
   rectified_infrared_out_.publish(std::move(out_infrared));
-  for (const Eye eye : {Eye::left, Eye::right}) {
-    const int i = eye == Eye::left ? 0 : 1;
-    rect_visible[i] = node::prepare(*out_visible, eye, grid_size_, CV_8UC3);
-    visible_maps_[i]->remap(node::view(visible, eye), rect_visible[i]);
+  if (visible_done.valid()) {
+    visible_done.get();  // rethrows a bad visible frame's error
+  } else {
+    rectify_visible();
   }
   copy_header(visible, *out_visible, start_ns);
   rectified_visible_out_.publish(std::move(out_visible));
   // Reading the published samples stays safe: this writer reuses a pool slot only at its next
   // loan, which comes with the next capture.
   const std::int64_t fusion_start_ns = transport::now_ns();
-  for (const Eye eye : {Eye::left, Eye::right}) {
-    const int i = eye == Eye::left ? 0 : 1;
+  const int fused_eyes = config_.fuse_right_eye ? 2 : 1;
+  for (int i = 0; i < fused_eyes; ++i) {
+    const Eye eye = i == 0 ? Eye::left : Eye::right;
     const cv::Mat infrared_agc = agc_[i].process(rect_infrared[i]);
-    const cv::Mat visible_for_fusion =
-        config_.enhance_visible ? enhance::enhance_visible(rect_visible[i]) : rect_visible[i];
     cv::Mat fused = node::prepare(*out_fused, eye, grid_size_, CV_8UC3);
-    fuse::fuse(infrared_agc, visible_for_fusion, config_.fusion).copyTo(fused);
+    // The fusion writes into the loaned sample (the buffer has the output's size and type).
+    fuse::fuse(infrared_agc, rect_visible[i], fused, config_.fusion);
   }
+  out_fused->eyes(config_.fuse_right_eye ? EYES_BOTH : EYES_LEFT);
   copy_header(visible, *out_fused, fusion_start_ns);
   fused_out_.publish(std::move(out_fused));
 }

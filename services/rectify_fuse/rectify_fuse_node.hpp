@@ -1,10 +1,10 @@
 #pragma once
 // thermovis-rectify-fuse: raw visible + infrared stereo frames -> both bands on the visible pair's
 // rectified grid (composed maps computed once, fixed-point remap), infrared gain control,
-// visible contrast enhancement and fusion, per eye. Publishes the rectified visible (BGR8),
-// rectified infrared (MONO16 raw counts) and fused (BGR8) stereo frames, each written in place into
-// a loaned sample. Only the newest capture is processed: older ones waiting are dropped and
-// counted.
+// visible contrast enhancement and fusion (left eye; both with fuse_right_eye). Publishes the
+// rectified visible (BGR8), rectified infrared (MONO16 raw counts) and fused (BGR8) stereo frames,
+// each written in place into a loaned sample. Only the newest capture is processed: older ones
+// waiting are dropped and counted.
 #include <array>
 #include <chrono>
 #include <memory>
@@ -23,8 +23,13 @@ namespace thermovis::rectify_fuse {
 
 struct RectifyFuseConfig {
   node::GridOptions grid;
-  fuse::FusionOptions fusion{fuse::FusionMethod::fast, fuse::ColourMode::luminance, {}};
-  bool enhance_visible = true;
+  // Fusion of the luma, with the visible contrast enhancement (CLAHE) done on the same luma.
+  fuse::FusionOptions fusion{
+      fuse::FusionMethod::fast, fuse::ColourMode::luminance, {}, enhance::VisibleContrastParams{}};
+  // The display needs the left eye fused; only matching on the fused band needs the right one.
+  bool fuse_right_eye = false;
+  // The visible pair is rectified on a second thread while this one rectifies the infrared.
+  bool parallel_bands = true;
   enhance::AgcParams agc;
   std::chrono::nanoseconds deadline{20'000'000};
 };

@@ -112,11 +112,20 @@ void fuse_luminance(const cv::Mat& infrared, const cv::Mat& visible, const Fusio
     cv::cvtColor(vis, luma_buffer, cv::COLOR_BGR2GRAY);
     luma = luma_buffer;
   }
+  // The luma the fusion sees: enhanced when asked (the colour shift below then carries both
+  // the enhancement and the fusion).
+  thread_local cv::Mat enhanced_buffer;
+  cv::Mat fusion_luma = luma;
+  if (o.enhance_visible) {
+    enhance::enhance_luma(luma, enhanced_buffer, *o.enhance_visible);
+    fusion_luma = enhanced_buffer;
+  }
   thread_local std::vector<cv::Mat> fused_luma(1);
   if (o.method == FusionMethod::fast) {
-    fast_fuse(ir, {luma}, luma, fused_luma, o.fast);
+    fast_fuse(ir, {fusion_luma}, fusion_luma, fused_luma, o.fast);
   } else {
-    fused_luma[0] = im2uint8(fuse_plane_vsmwls(plane_unit(ir, 0), plane_unit(luma, 0), o.method));
+    fused_luma[0] =
+        im2uint8(fuse_plane_vsmwls(plane_unit(ir, 0), plane_unit(fusion_luma, 0), o.method));
   }
   enhance::replace_luma(vis, luma, fused_luma[0], out);
 }
@@ -178,6 +187,11 @@ void fuse(const cv::Mat& infrared, const cv::Mat& visible, cv::Mat& fused,
     throw std::invalid_argument("images must be at least 18x18 pixels, got " + describe(infrared));
   }
   if (options.colour == ColourMode::per_channel) {
+    if (options.enhance_visible) {
+      const cv::Mat enhanced = enhance::enhance_visible(to_u8(visible), *options.enhance_visible);
+      fuse_per_channel(infrared, enhanced, options, fused);
+      return;
+    }
     fuse_per_channel(infrared, visible, options, fused);
   } else {
     fuse_luminance(infrared, visible, options, fused);

@@ -239,6 +239,18 @@ TEST(Services, MatchReportsABadDetectionAndServesTheNextGoodOne) {
 
   const cv::Size grid = pipeline_geometry().grid.image_size();
   const int shift = 9;
+  {
+    // A fused frame with the left eye only (rectify-fuse's default): not a pair to match on.
+    auto loan = fused.loan();
+    fill_textured_pair(*loan, grid, shift, 4);
+    loan->eyes(tv::EYES_LEFT);
+    fused.publish(std::move(loan));
+  }
+  const auto left_only = h.wait_health(
+      "thermovis-match", [](const tv::Health& x) { return x.errors() >= 1; }, 30s);
+  ASSERT_TRUE(left_only) << match.log();
+  EXPECT_NE(left_only->message().to_string().find("--fused-eyes both"), std::string::npos)
+      << left_only->message().to_string();
   for (std::uint64_t seq : {5u, 6u}) {
     auto loan = fused.loan();
     fill_textured_pair(*loan, grid, shift, seq);
@@ -258,7 +270,7 @@ TEST(Services, MatchReportsABadDetectionAndServesTheNextGoodOne) {
   };
   detections.write(detection_array(5, box2d(100.f, 100.f, kNaN, 50.f)));
   const auto reported = h.wait_health(
-      "thermovis-match", [](const tv::Health& x) { return x.errors() >= 1; }, 30s);
+      "thermovis-match", [](const tv::Health& x) { return x.errors() >= 2; }, 30s);
   ASSERT_TRUE(reported) << match.log();
   EXPECT_NE(reported->message().to_string().find("non-finite"), std::string::npos)
       << reported->message().to_string();
@@ -328,15 +340,22 @@ TEST(Services, RectifyFuseReportsAWrongSizedFrameAndServesTheNextGoodOne) {
       << reported->message().to_string();
   publish(2, {1920, 1080});
   cv::Size fused_size;
+  tv::EyeSet fused_eyes = tv::EYES_BOTH;
+  cv::Scalar fused_mean;
   ASSERT_TRUE(receive<tv::GridStereoFrame>(
       fused,
       [&](const tv::GridStereoFrame& f) {
         fused_size = cv::Size(static_cast<int>(f.width()), static_cast<int>(f.height()));
+        fused_eyes = f.eyes();
+        if (f.seq() == 2) fused_mean = cv::mean(tv::node::view(f, tv::node::Eye::left));
         return f.seq() == 2;
       },
       30s))
       << rf.log();
   EXPECT_EQ(fused_size, pipeline_geometry().grid.image_size());
+  // The display's frame: the left eye fused (a uniform grey scene inside the field), no right.
+  EXPECT_EQ(fused_eyes, tv::EYES_LEFT);
+  EXPECT_GT(fused_mean[0] + fused_mean[1] + fused_mean[2], 30.0);
   rf.signal(SIGTERM);
   EXPECT_EQ(rf.wait(20s), 0) << rf.log();
 }

@@ -5,6 +5,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "thermovis/enhance/visible_contrast.hpp"
 #include "thermovis/fuse/fusion.hpp"
 
 namespace {
@@ -99,6 +100,33 @@ TEST(Fusion, LuminanceModeKeepsVisibleChroma) {
     }
     EXPECT_GT(checked, 1000);
   }
+}
+
+// Enhancement inside the fusion (the pipeline's single luma pass) gives what enhancing the
+// visible image first and fusing it gives, up to the rounding of the intermediate colour image.
+TEST(Fusion, EnhancementOnTheFusedLumaEqualsEnhancingFirst) {
+  cv::Mat vis(120, 160, CV_8UC3), ir(120, 160, CV_8UC1);
+  cv::Mat dark(120, 160, CV_8UC1);
+  cv::randu(dark, 20, 70);  // a dim scene: CLAHE changes it a lot
+  cv::GaussianBlur(dark, dark, cv::Size(5, 5), 1.5);
+  cv::merge(std::vector<cv::Mat>{dark, dark + 10, dark + 5}, vis);
+  cv::randu(ir, 0, 255);
+  cv::GaussianBlur(ir, ir, cv::Size(9, 9), 3.0);
+  fu::FusionOptions plain = with(fu::FusionMethod::fast, fu::ColourMode::luminance);
+  fu::FusionOptions inside = plain;
+  inside.enhance_visible = thermovis::enhance::VisibleContrastParams{};
+  const cv::Mat expected = fu::fuse(ir, thermovis::enhance::enhance_visible(vis), plain);
+  const cv::Mat got = fu::fuse(ir, vis, inside);
+  cv::Mat diff;
+  cv::absdiff(expected, got, diff);
+  double max_diff = 0;
+  cv::minMaxLoc(diff.reshape(1), nullptr, &max_diff);
+  EXPECT_LE(max_diff, 3.0);
+  EXPECT_LE(cv::mean(diff)[0], 0.6);
+  // And it did enhance: the result differs from the unenhanced fusion.
+  cv::Mat change;
+  cv::absdiff(fu::fuse(ir, vis, plain), got, change);
+  EXPECT_GT(cv::mean(change)[0], 5.0);
 }
 
 }  // namespace

@@ -20,6 +20,11 @@ struct VisibleContrastParams {
 // saturates. A one-channel `bgr` gives new_luma itself. `out` is reused when it has the size.
 void replace_luma(const cv::Mat& bgr, const cv::Mat& luma, const cv::Mat& new_luma, cv::Mat& out);
 
+// CLAHE of a luma plane (CV_8UC1) into `out` (reused when it has the size): what
+// enhance_visible does to the luma, for callers that go on working on the luma (fusion).
+// Throws std::invalid_argument for another type or bad parameters.
+void enhance_luma(const cv::Mat& luma, cv::Mat& out, const VisibleContrastParams& params = {});
+
 // visible: CV_8UC1 or CV_8UC3 (BGR). Returns the same type. Throws std::invalid_argument for
 // empty input or another type.
 cv::Mat enhance_visible(const cv::Mat& visible, const VisibleContrastParams& params = {});

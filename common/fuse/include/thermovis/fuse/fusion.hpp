@@ -22,6 +22,7 @@
 
 #include <opencv2/core/mat.hpp>
 
+#include "thermovis/enhance/visible_contrast.hpp"
 #include "thermovis/fuse/fast_fusion.hpp"
 #include "thermovis/fuse/vsmwls.hpp"
 
@@ -39,6 +40,10 @@ struct FusionOptions {
   FusionMethod method = FusionMethod::vsmwls;
   ColourMode colour = ColourMode::per_channel;
   FastFusionParams fast;  // used by FusionMethod::fast
+  // Visible contrast enhancement (enhance::enhance_visible's CLAHE) applied to the visible
+  // image before it is fused, when set. In luminance mode it works on the luma the fusion uses
+  // (one luma extraction and one colour shift for both steps: the pipeline's way).
+  std::optional<enhance::VisibleContrastParams> enhance_visible;
 };
 
 std::string_view method_name(FusionMethod method);  // "vsmwls", "vsmwls-paper", "fast"
