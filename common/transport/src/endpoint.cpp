@@ -96,8 +96,15 @@ WriterBase::WriterBase(Participant& participant, const std::string& topic,
   dds::Topic* dds_topic = participant_->topic(topic, type);
   const dds::StatusMask mask = dds::StatusMask::publication_matched()
                                << dds::StatusMask::offered_deadline_missed();
-  writer_ =
-      participant_->publisher->create_datawriter(dds_topic, writer_qos(qos), listener_.get(), mask);
+  dds::DataWriterQos dds_qos = writer_qos(qos);
+  if (qos.kind == TopicKind::frame && !participant_->frame_flow_controller.empty()) {
+    // Profiles for other hosts (udp.xml): frames leave through the participant's bandwidth
+    // limit, from the flow controller's thread, so a 12.5 MB sample is spread over time
+    // instead of overflowing the receiver's socket buffer.
+    dds_qos.publish_mode().kind = dds::ASYNCHRONOUS_PUBLISH_MODE;
+    dds_qos.publish_mode().flow_controller_name = participant_->frame_flow_controller.c_str();
+  }
+  writer_ = participant_->publisher->create_datawriter(dds_topic, dds_qos, listener_.get(), mask);
   if (writer_ == nullptr) {
     throw std::runtime_error("cannot create DDS writer on '" + topic + "' (see the Fast DDS log)");
   }

@@ -11,6 +11,7 @@
 #include <fastdds/dds/publisher/Publisher.hpp>
 #include <fastdds/dds/subscriber/Subscriber.hpp>
 #include <fastdds/dds/topic/Topic.hpp>
+#include <fastdds/rtps/flowcontrol/FlowControllerDescriptor.hpp>
 
 namespace thermovis::transport {
 
@@ -48,14 +49,57 @@ std::filesystem::path profile_dir() {
 
 std::filesystem::path shipped_profile_file(const std::string& profile) {
   static const std::map<std::string, std::string> files = {{kHostProfile, "host.xml"},
-                                                           {kLoopbackProfile, "loopback.xml"}};
+                                                           {kLoopbackProfile, "loopback.xml"},
+                                                           {kUdpProfile, "udp.xml"},
+                                                           {kDiscoveryProfile, "udp.xml"}};
   const auto it = files.find(profile);
   if (it == files.end()) {
     throw std::invalid_argument("unknown DDS participant profile '" + profile +
-                                "' (shipped: thermovis_host, thermovis_loopback)");
+                                "' (shipped: thermovis_host, thermovis_loopback, thermovis_udp, "
+                                "thermovis_discovery)");
   }
   return profile_dir() / it->second;
 }
+
+namespace {
+
+// Fast DDS 2.9 reads flow controllers from code only (its XML parser knows no
+// flow_controller_descriptor_list), so a profile states the frame writers' bandwidth limit as
+// properties and this registers the controller. Returns its name, or empty when not configured.
+std::string register_frame_flow_controller(dds::DomainParticipantQos& qos,
+                                           const std::string& profile) {
+  const std::string* bytes = nullptr;
+  const std::string* period = nullptr;
+  for (const auto& property : qos.properties().properties()) {
+    if (property.name() == "thermovis.frames.max_bytes_per_period") bytes = &property.value();
+    if (property.name() == "thermovis.frames.period_ms") period = &property.value();
+  }
+  if (bytes == nullptr) return {};
+  auto number = [&](const std::string* text, const char* what, long long low, long long high) {
+    try {
+      std::size_t used = 0;
+      const long long value = std::stoll(*text, &used);
+      if (used == text->size() && value >= low && value <= high) return value;
+    } catch (const std::exception&) {
+    }
+    throw std::runtime_error("DDS profile '" + profile + "': property " + what + " = '" + *text +
+                             "' is not a number in " + std::to_string(low) + ".." +
+                             std::to_string(high));
+  };
+  static constexpr const char* kName = "thermovis_frames";
+  auto descriptor = std::make_shared<eprosima::fastdds::rtps::FlowControllerDescriptor>();
+  descriptor->name = kName;
+  // Round robin: the rectified visible and infrared writers share the link in turns.
+  descriptor->scheduler = eprosima::fastdds::rtps::FlowControllerSchedulerPolicy::ROUND_ROBIN;
+  descriptor->max_bytes_per_period = static_cast<std::int32_t>(
+      number(bytes, "thermovis.frames.max_bytes_per_period", 0, 2147483647));
+  descriptor->period_ms = static_cast<std::uint64_t>(
+      period == nullptr ? 100 : number(period, "thermovis.frames.period_ms", 1, 10000));
+  qos.flow_controllers().push_back(descriptor);
+  return kName;
+}
+
+}  // namespace
 
 Participant::Participant(const ParticipantConfig& config) : state_(std::make_shared<State>()) {
   if (config.domain_id < 0 || config.domain_id > 232) {
@@ -73,7 +117,19 @@ Participant::Participant(const ParticipantConfig& config) : state_(std::make_sha
                              file.string());
   }
   if (!config.name.empty()) qos.name(config.name);
+  if (config.profile == kDiscoveryProfile) {
+    // Fast DDS makes the participant a client of these servers; without them it would fall
+    // back to multicast discovery, which this profile is for networks without.
+    const char* servers = std::getenv("ROS_DISCOVERY_SERVER");
+    if (servers == nullptr || *servers == '\0') {
+      throw std::runtime_error(
+          "DDS profile 'thermovis_discovery' needs ROS_DISCOVERY_SERVER=IP:PORT (the address of "
+          "a running `fastdds discovery -i 0 -l IP -p PORT`)");
+    }
+  }
   state_->domain_id = config.domain_id;
+  state_->profile = config.profile;
+  state_->frame_flow_controller = register_frame_flow_controller(qos, config.profile);
   state_->participant = factory->create_participant(config.domain_id, qos);
   if (state_->participant == nullptr) {
     throw std::runtime_error("cannot create DDS participant on domain " +

@@ -21,6 +21,10 @@ namespace thermovis::transport {
 // Names of the participant profiles shipped in deploy/dds/.
 inline constexpr const char* kHostProfile = "thermovis_host";          // host.xml
 inline constexpr const char* kLoopbackProfile = "thermovis_loopback";  // loopback.xml
+// Across hosts (udp.xml): UDPv4 with large-sample settings between machines, shared memory within
+// one; simple (multicast) discovery, or a discovery server named by $ROS_DISCOVERY_SERVER.
+inline constexpr const char* kUdpProfile = "thermovis_udp";
+inline constexpr const char* kDiscoveryProfile = "thermovis_discovery";
 
 struct ParticipantConfig {
   int domain_id = 0;                    // 0..232 (UDP port arithmetic of the RTPS spec)
@@ -62,6 +66,11 @@ struct Participant::State {
   eprosima::fastdds::dds::Publisher* publisher = nullptr;
   eprosima::fastdds::dds::Subscriber* subscriber = nullptr;
   int domain_id = 0;
+  std::string profile;  // the participant profile it was made from
+  // Flow controller frame writers publish through (asynchronously), or empty: frames are sent
+  // by the writing thread. Set by a profile's properties thermovis.frames.max_bytes_per_period
+  // and thermovis.frames.period_ms (udp.xml: large frames to other hosts).
+  std::string frame_flow_controller;
 
   // The topic of that name, created (and its type registered) on first use. Throws when the
   // name is already used with another type.

@@ -1,0 +1,372 @@
+// The pipeline split over three hosts of a lab (network namespaces linked through a switch,
+// deploy/lab/lab.sh): the bridge and rectify-fuse on host a, detect, match and range on host b,
+// and this test's own DDS reader of thermovis/ranges on host c. Nothing but the lab's links
+// joins the hosts (each has its own addresses, so Fast DDS sees three machines and uses UDP
+// between them; shared memory and data-sharing only within one). The ranges must be those of
+// one host (same tolerance against the simulated truth as tests/integration/pipeline), and
+// must come back after a cable is cut and restored. The per-hop latencies over the lab's links
+// (from the stamps every message carries; the namespaces share one clock) and the bytes that
+// crossed host a's link are printed and recorded as test properties.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <filesystem>
+#include <iomanip>
+#include <iostream>
+#include <limits>
+#include <map>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "lab_harness.hpp"
+#include "thermovis/runtime/rig_io.hpp"
+#include "thermovis/runtime/scene_io.hpp"
+#include "thermovis/sim/simulated_rig.hpp"
+#include "thermovis/test/child_process.hpp"
+#include "thermovis/test/data.hpp"
+#include "thermovis/transport/clock.hpp"
+#include "thermovis/transport/participant.hpp"
+#include "thermovis/transport/qos.hpp"
+#include "thermovis/transport/reader.hpp"
+#include "thermovis/transport/topics.hpp"
+
+namespace {
+
+using namespace std::chrono_literals;
+using Clock = std::chrono::steady_clock;
+using thermovis::test::ChildProcess;
+using thermovis::test::Lab;
+namespace tv = thermovis;
+
+// The pipeline's services, each on its lab host, stopped downstream first (a reader before the
+// writer it reads from).
+class SplitPipeline {
+ public:
+  SplitPipeline(const Lab& lab, const std::filesystem::path& dir, int domain,
+                const std::string& profile, const std::map<std::string, std::string>& env = {}) {
+    const auto bin = thermovis::test::bin_dir();
+    const auto scene = thermovis::test::source_root() / "deploy/scenes/paper.yaml";
+    const std::vector<std::string> dds{"--domain", std::to_string(domain), "--profile", profile};
+    auto start = [&](const std::string& host, const std::string& service,
+                     std::vector<std::string> extra) {
+      std::vector<std::string> argv{(bin / service).string()};
+      argv.insert(argv.end(), dds.begin(), dds.end());
+      argv.insert(argv.end(), extra.begin(), extra.end());
+      services_.push_back({service, lab.start(host, argv, dir / (service + ".log"), env)});
+    };
+    // 5 captures a second (THERMOVIS_LAB_RATE to measure others): each crosses a->b as two
+    // 12.5 MB samples (rectified visible and infrared, the plain type's full size), 125 MB/s,
+    // within the 200 MB/s of udp.xml's flow controller. An offered load above it makes frames
+    // superseded while still in flight and the results collapse (README, "Lab across hosts").
+    const char* rate = std::getenv("THERMOVIS_LAB_RATE");
+    start("a", "thermovis-bridge",
+          {"--source", "sim", "--scene", scene.string(), "--prerender", "10", "--rate",
+           rate != nullptr ? rate : "5"});
+    start("a", "thermovis-rectify-fuse", {});
+    start("b", "thermovis-detect", {});
+    start("b", "thermovis-match", {});
+    start("b", "thermovis-range", {});
+  }
+  ~SplitPipeline() { stop(); }
+
+  // SIGTERM downstream first; the exit codes by service (-1: killed after the timeout).
+  std::map<std::string, int> stop() {
+    std::map<std::string, int> codes;
+    for (auto it = services_.rbegin(); it != services_.rend(); ++it) {
+      if (!it->process) continue;
+      it->process->signal(SIGTERM);
+      codes[it->name] = it->process->wait(30s).value_or(-1);
+      it->process.reset();
+    }
+    return codes;
+  }
+
+  std::string logs() const {
+    std::string all;
+    for (const auto& s : services_) {
+      if (!s.process) continue;
+      std::string log = s.process->log();
+      if (log.size() > 3000) log = "..." + log.substr(log.size() - 3000);
+      all += "---- " + s.name + "\n" + log;
+    }
+    return all;
+  }
+
+ private:
+  struct Service {
+    std::string name;
+    std::unique_ptr<ChildProcess> process;
+  };
+  std::vector<Service> services_;
+};
+
+// Distance of `point` from the line of sight through `direction` (infinite when behind).
+double off_axis_m(const Eigen::Vector3d& direction, const Eigen::Vector3d& point) {
+  const Eigen::Vector3d d = direction.normalized();
+  const double along = point.dot(d);
+  return along > 0 ? (point - along * d).norm() : std::numeric_limits<double>::infinity();
+}
+
+double percentile(std::vector<double> values, double p) {
+  if (values.empty()) return 0.0;
+  std::sort(values.begin(), values.end());
+  const auto rank = static_cast<std::size_t>(std::ceil(p / 100.0 * values.size()));
+  return values[std::min(values.size() - 1, rank == 0 ? 0 : rank - 1)];
+}
+
+// Latencies of one result's path, ms: each stage's processing and each hop between stages
+// (from one stage's end to the next one's start: transport plus waiting), and the last hop to
+// the consumer that received it at `received_ns`.
+struct PathLatency {
+  std::map<std::string, std::vector<double>> ms;
+
+  void add(const tv::PipelineStamps& stamps, std::int64_t capture_ns, std::int64_t received_ns) {
+    static const std::map<tv::Stage, std::string> names{{tv::STAGE_BRIDGE, "bridge"},
+                                                        {tv::STAGE_RECTIFY_FUSE, "rectify-fuse"},
+                                                        {tv::STAGE_DETECT, "detect"},
+                                                        {tv::STAGE_MATCH, "match"},
+                                                        {tv::STAGE_RANGE, "range"}};
+    std::string previous = "capture";
+    std::int64_t previous_end = capture_ns;
+    for (const tv::StageStamp& s : stamps.stamps()) {
+      if (s.stage() == tv::STAGE_NONE) break;
+      const auto name = names.count(s.stage()) ? names.at(s.stage()) : "stage?";
+      const std::int64_t start = s.end_ns() - static_cast<std::int64_t>(s.duration_us()) * 1000;
+      if (previous != "capture")
+        ms[previous + " -> " + name].push_back((start - previous_end) / 1e6);
+      ms[name].push_back(s.duration_us() / 1e3);
+      previous = name;
+      previous_end = s.end_ns();
+    }
+    ms[previous + " -> consumer"].push_back((received_ns - previous_end) / 1e6);
+    ms["capture -> consumer"].push_back((received_ns - capture_ns) / 1e6);
+  }
+
+  std::string table() const {
+    std::ostringstream out;
+    out << std::fixed << std::setprecision(1);
+    for (const auto& [name, values] : ms) {
+      out << "  " << std::setw(28) << std::left << name << std::right << " p50 " << std::setw(7)
+          << percentile(values, 50) << " ms  p99 " << std::setw(7) << percentile(values, 99)
+          << " ms  (" << values.size() << ")\n";
+    }
+    return out.str();
+  }
+};
+
+// Bytes host `host` sent on its lab link so far.
+std::uint64_t tx_bytes(const Lab& lab, const std::filesystem::path& dir, const std::string& host) {
+  ChildProcess ip({"/usr/bin/env", "ip", "-n", lab.ns(host), "-s", "-j", "link", "show", "eth0"},
+                  dir / "ip-stats.log");
+  if (ip.wait(20s) != 0) return 0;
+  const auto j = nlohmann::json::parse(ip.log(), nullptr, false);
+  if (j.is_discarded() || !j.is_array() || j.empty()) return 0;
+  return j[0]["stats64"]["tx"]["bytes"].get<std::uint64_t>();
+}
+
+struct Checked {
+  std::string truth_id;
+  double truth_m = 0, distance_m = 0;
+};
+
+// Range results received at the consumer, checked against the simulated truth.
+class RangeCheck {
+ public:
+  explicit RangeCheck(tv::transport::Reader<tv::RangeArray>& reader)
+      : reader_(reader),
+        sim_(tv::runtime::load_rig(tv::runtime::default_rig_path()),
+             tv::runtime::load_scene(thermovis::test::source_root() / "deploy/scenes/paper.yaml"),
+             1, tv::sim::RenderOptions{false, false}) {}
+
+  // Takes results until `until` or until `wanted` arrays with targets arrived (0: until `until`);
+  // returns how many arrays with targets came.
+  int collect(Clock::time_point until, int wanted, bool check = true) {
+    int got = 0;
+    while (Clock::now() < until && (wanted == 0 || got < wanted)) {
+      reader_.wait_for_data(100ms);
+      auto samples = reader_.take();
+      const std::int64_t received_ns = tv::transport::now_ns();
+      for (std::size_t i = 0; i < samples.size(); ++i) {
+        const tv::RangeArray& a = samples[i];
+        if (a.targets().empty()) continue;
+        ++got;
+        last_ = Clock::now();
+        if (!check) continue;
+        ++arrays_;
+        latency_.add(a.stamps(), a.capture_time_ns(), received_ns);
+        add(a);
+      }
+    }
+    return got;
+  }
+
+  // Per person ranged in at least a tenth of the arrays: mean distance within 6 % of the
+  // truth (tests/integration/pipeline); at least `people` such persons; few stray ranges.
+  void expect_like_one_host(int people) const {
+    std::map<std::string, std::vector<const Checked*>> by_target;
+    for (const auto& c : checked_) by_target[c.truth_id].push_back(&c);
+    int ranged = 0;
+    for (const auto& [id, list] : by_target) {
+      if (list.size() < arrays_ / 10) continue;
+      ++ranged;
+      double mean = 0, truth = 0;
+      for (const Checked* c : list) {
+        mean += c->distance_m;
+        truth += c->truth_m;
+      }
+      mean /= static_cast<double>(list.size());
+      truth /= static_cast<double>(list.size());
+      std::cout << "  " << id << ": " << list.size() << " ranges, mean " << mean << " m, truth "
+                << truth << " m\n";
+      EXPECT_NEAR(mean, truth, 0.06 * truth) << id << " over " << list.size() << " frames";
+    }
+    EXPECT_GE(ranged, people) << "people ranged in at least a tenth of " << arrays_ << " arrays";
+    EXPECT_LE(unmatched_, checked_.size() / 10) << "ranges in no simulated target's direction";
+  }
+
+  std::size_t arrays() const { return arrays_; }
+  Clock::time_point last() const { return last_; }
+  const PathLatency& latency() const { return latency_; }
+
+ private:
+  void add(const tv::RangeArray& a) {
+    const auto truth = sim_.truth(static_cast<std::int64_t>(a.frame_seq()));
+    for (const tv::TargetRange& r : a.targets()) {
+      const tv::sim::TargetTruth* best = nullptr;
+      double best_offset = 0;
+      for (const auto& t : truth) {
+        const double offset = off_axis_m(Eigen::Vector3d(r.x_m(), r.y_m(), r.z_m()), t.position_m);
+        if (offset < 0.8 + 0.02 * t.distance_m && (best == nullptr || offset < best_offset)) {
+          best = &t;
+          best_offset = offset;
+        }
+      }
+      if (best == nullptr) {
+        ++unmatched_;
+        continue;
+      }
+      checked_.push_back({best->id, best->distance_m, r.distance_m()});
+    }
+  }
+
+  tv::transport::Reader<tv::RangeArray>& reader_;
+  tv::sim::SimulatedRig sim_;
+  std::vector<Checked> checked_;
+  std::size_t arrays_ = 0, unmatched_ = 0;
+  Clock::time_point last_{};
+  PathLatency latency_;
+};
+
+std::unique_ptr<tv::transport::Participant> participant_on_lab(int domain,
+                                                               const std::string& profile) {
+  tv::transport::ParticipantConfig pc;
+  pc.domain_id = domain;
+  pc.profile = profile;
+  pc.profiles_file = tv::transport::shipped_profile_file(profile);
+  pc.name = "lab-consumer";
+  return std::make_unique<tv::transport::Participant>(pc);
+}
+
+TEST(Lab, PipelineOverThreeHostsRangesAsOnOneHostAndComesBackAfterALinkCut) {
+  const auto dir = thermovis::test::temp_dir("lab");
+  std::string why;
+  const auto lab = Lab::make({"a", "b", "c"}, true, why);
+  if (!lab) GTEST_SKIP() << why;
+  const int domain = thermovis::test::private_domain();
+  // This test is the consumer on host c: its participant lives in c's namespace.
+  const thermovis::test::NetnsScope on_c(lab->ns("c"));
+  const auto participant = participant_on_lab(domain, tv::transport::kUdpProfile);
+  tv::transport::Reader<tv::RangeArray> ranges(*participant, tv::transport::topics::kRanges,
+                                               tv::transport::event_topic_qos(64));
+  SplitPipeline pipeline(*lab, dir, domain, tv::transport::kUdpProfile);
+  RangeCheck check(ranges);
+
+  // First results (services start, discover each other over the lab, make their maps).
+  ASSERT_GE(check.collect(Clock::now() + 120s, 1, false), 1) << "no ranges reached host c\n"
+                                                             << pipeline.logs();
+  // Then 12 s of results, and what crossed host a's link meanwhile.
+  const std::uint64_t tx0 = tx_bytes(*lab, dir, "a");
+  const auto t0 = Clock::now();
+  check.collect(t0 + 12s, 0);
+  const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  const double a_mbit_s = static_cast<double>(tx_bytes(*lab, dir, "a") - tx0) * 8 / 1e6 / seconds;
+  std::cout << check.arrays() << " range arrays at host c in " << seconds << " s ("
+            << check.arrays() / seconds << " /s); host a sent " << a_mbit_s << " Mbit/s\n"
+            << "latency per stage and hop:\n"
+            << check.latency().table();
+  RecordProperty("ranges_per_s", std::to_string(check.arrays() / seconds));
+  RecordProperty("host_a_link_mbit_s", std::to_string(a_mbit_s));
+  for (const auto& [name, values] : check.latency().ms)
+    RecordProperty(name + " p50_ms", std::to_string(percentile(values, 50)));
+  ASSERT_GE(check.arrays(), 20u) << pipeline.logs();
+  check.expect_like_one_host(4);
+
+  // Host b's cable is cut for 4 s: frames from a and ranges to c stop (proof that they went
+  // over the lab's links, not through shared memory), then resume.
+  lab->link("b", false);
+  const auto cut = Clock::now();
+  check.collect(cut + 1s, 0, false);  // results already past the cut
+  const int during = check.collect(cut + 4s, 0, false);
+  EXPECT_EQ(during, 0) << "ranges arrived at c while b was cut off";
+  lab->link("b", true);
+  const auto restored = Clock::now();
+  ASSERT_GE(check.collect(restored + 90s, 1, false), 1)
+      << "no ranges within 90 s after the link came back\n"
+      << pipeline.logs();
+  const double outage_s = std::chrono::duration<double>(check.last() - restored).count();
+  std::cout << "link of b restored: ranges at c again after " << outage_s << " s\n";
+  RecordProperty("ranges_again_after_link_up_s", std::to_string(outage_s));
+  EXPECT_GE(check.collect(Clock::now() + 30s, 5, false), 5) << "ranges did not keep flowing";
+
+  for (const auto& [service, code] : pipeline.stop()) EXPECT_EQ(code, 0) << service;
+  std::filesystem::remove_all(dir);
+}
+
+// Without multicast (no multicast route on any host), discovery through a Fast DDS discovery
+// server on host a: every participant, this test's included, is a client of it.
+TEST(Lab, PipelineOverThreeHostsWithADiscoveryServerAndNoMulticast) {
+  const auto dir = thermovis::test::temp_dir("lab-ds");
+  std::string why;
+  const auto lab = Lab::make({"a", "b", "c"}, false, why);
+  if (!lab) GTEST_SKIP() << why;
+  const int domain = thermovis::test::private_domain();
+  // A port of this test's own (the server is not bound to a domain).
+  const std::string server = lab->ip("a") + ":" + std::to_string(11811 + domain);
+  auto discovery_server = lab->start("a",
+                                     {"/usr/bin/env", "fastdds", "discovery", "-i", "0", "-l",
+                                      lab->ip("a"), "-p", std::to_string(11811 + domain)},
+                                     dir / "discovery-server.log");
+  const std::map<std::string, std::string> env{{"ROS_DISCOVERY_SERVER", server}};
+  const thermovis::test::NetnsScope on_c(lab->ns("c"));
+  ::setenv("ROS_DISCOVERY_SERVER", server.c_str(), 1);
+  const auto participant = participant_on_lab(domain, tv::transport::kDiscoveryProfile);
+  tv::transport::Reader<tv::RangeArray> ranges(*participant, tv::transport::topics::kRanges,
+                                               tv::transport::event_topic_qos(64));
+  SplitPipeline pipeline(*lab, dir, domain, tv::transport::kDiscoveryProfile, env);
+  RangeCheck check(ranges);
+  ASSERT_GE(check.collect(Clock::now() + 120s, 1, false), 1)
+      << "no ranges reached host c through the discovery server\n"
+      << pipeline.logs() << "---- discovery server\n"
+      << discovery_server->log();
+  const auto t0 = Clock::now();
+  check.collect(t0 + 10s, 0);
+  const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  std::cout << check.arrays() << " range arrays at host c in " << seconds << " s\n"
+            << check.latency().table();
+  ASSERT_GE(check.arrays(), 10u) << pipeline.logs();
+  check.expect_like_one_host(4);
+  for (const auto& [service, code] : pipeline.stop()) EXPECT_EQ(code, 0) << service;
+  discovery_server->signal(SIGTERM);
+  discovery_server->wait(10s);
+  ::unsetenv("ROS_DISCOVERY_SERVER");
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
