@@ -1,6 +1,7 @@
 #include "thermovis/transport/endpoint.hpp"
 
 #include <stdexcept>
+#include <utility>
 
 #include <fastdds/dds/publisher/DataWriter.hpp>
 #include <fastdds/dds/publisher/DataWriterListener.hpp>
@@ -9,6 +10,8 @@
 #include <fastdds/dds/subscriber/DataReaderListener.hpp>
 #include <fastdds/dds/subscriber/Subscriber.hpp>
 #include <fastdds/dds/topic/Topic.hpp>
+
+#include "pool_lifetime.hpp"
 
 namespace thermovis::transport {
 
@@ -206,9 +209,15 @@ bool ReaderBase::wait_for_data(std::chrono::nanoseconds timeout) {
 }
 
 std::size_t ReaderBase::take_raw(dds::LoanableCollection& data, dds::SampleInfoSeq& infos,
-                                 std::int32_t max_samples) {
+                                 std::int32_t max_samples, std::uint64_t& loan_ticket) {
+  detail::release_deferred_unmaps();
+  // The ticket comes before the take: a pool unmapped from here on waits for this loan.
+  loan_ticket = detail::loan_taken();
   const ReturnCode_t code =
       reader_->take(data, infos, max_samples < 0 ? dds::LENGTH_UNLIMITED : max_samples);
+  if (code != ReturnCode_t::RETCODE_OK || data.has_ownership()) {
+    detail::loan_returned(std::exchange(loan_ticket, 0));  // nothing loaned
+  }
   if (code == ReturnCode_t::RETCODE_NO_DATA) return 0;
   if (code != ReturnCode_t::RETCODE_OK) {
     throw std::runtime_error("cannot take from '" + topic_ + "': " + return_code_name(code));
@@ -221,9 +230,10 @@ std::size_t ReaderBase::take_raw(dds::LoanableCollection& data, dds::SampleInfoS
   return valid;
 }
 
-void ReaderBase::return_raw(dds::LoanableCollection& data, dds::SampleInfoSeq& infos) noexcept {
-  if (data.has_ownership()) return;  // nothing was loaned (no data)
-  reader_->return_loan(data, infos);
+void ReaderBase::return_raw(dds::LoanableCollection& data, dds::SampleInfoSeq& infos,
+                            std::uint64_t loan_ticket) noexcept {
+  if (!data.has_ownership()) reader_->return_loan(data, infos);  // else nothing was loaned
+  if (loan_ticket != 0) detail::loan_returned(loan_ticket);
 }
 
 bool ReaderBase::still_valid_raw(const void* sample, const dds::SampleInfo& info) {

@@ -87,11 +87,14 @@ class ReaderBase {
 
  protected:
   // Takes up to max_samples into `data` (loaned from the reader when `data` owns no buffers).
-  // Returns the number of samples with valid data; 0 when nothing was available.
+  // Returns the number of samples with valid data; 0 when nothing was available. When samples
+  // were loaned, `loan_ticket` keeps the pools they live in mapped until return_raw() (a
+  // departed writer's pool stays readable while its samples are held: pool_lifetime.hpp).
   std::size_t take_raw(eprosima::fastdds::dds::LoanableCollection& data,
-                       eprosima::fastdds::dds::SampleInfoSeq& infos, std::int32_t max_samples);
+                       eprosima::fastdds::dds::SampleInfoSeq& infos, std::int32_t max_samples,
+                       std::uint64_t& loan_ticket);
   void return_raw(eprosima::fastdds::dds::LoanableCollection& data,
-                  eprosima::fastdds::dds::SampleInfoSeq& infos) noexcept;
+                  eprosima::fastdds::dds::SampleInfoSeq& infos, std::uint64_t loan_ticket) noexcept;
   bool still_valid_raw(const void* sample, const eprosima::fastdds::dds::SampleInfo& info);
 
  private:

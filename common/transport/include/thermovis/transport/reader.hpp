@@ -1,7 +1,9 @@
 #pragma once
 // Typed DDS reader. take() returns the samples loaned from the middleware: for plain frame
 // types delivered by data-sharing they point straight into the writer's shared-memory pool
-// (no copy); the loan goes back when the Samples object is destroyed.
+// (no copy); the loan goes back when the Samples object is destroyed. The pool stays mapped
+// while the samples are held, even when its writer goes away meanwhile (stopped or killed).
+#include <cstdint>
 #include <memory>
 #include <utility>
 #include <vector>
@@ -27,11 +29,12 @@ class Samples {
       : reader_(std::exchange(other.reader_, nullptr)),
         data_(std::move(other.data_)),
         infos_(std::move(other.infos_)),
-        valid_(std::move(other.valid_)) {}
+        valid_(std::move(other.valid_)),
+        loan_ticket_(std::exchange(other.loan_ticket_, 0)) {}
   Samples& operator=(Samples&&) = delete;
   Samples(const Samples&) = delete;
   ~Samples() {
-    if (reader_ != nullptr) reader_->give_back(*data_, *infos_);
+    if (reader_ != nullptr) reader_->give_back(*data_, *infos_, loan_ticket_);
   }
 
   std::size_t size() const { return valid_.size(); }
@@ -55,6 +58,7 @@ class Samples {
   std::unique_ptr<eprosima::fastdds::dds::LoanableSequence<T>> data_;
   std::unique_ptr<eprosima::fastdds::dds::SampleInfoSeq> infos_;
   std::vector<Index> valid_;
+  std::uint64_t loan_ticket_ = 0;
 };
 
 template <class T>
@@ -66,7 +70,7 @@ class Reader : public ReaderBase {
   // Takes every available sample (at most max_samples), without waiting.
   Samples<T> take(std::int32_t max_samples = -1) {
     Samples<T> samples(this);
-    take_raw(*samples.data_, *samples.infos_, max_samples);
+    take_raw(*samples.data_, *samples.infos_, max_samples, samples.loan_ticket_);
     for (typename Samples<T>::Index i = 0; i < samples.infos_->length(); ++i) {
       if ((*samples.infos_)[i].valid_data) samples.valid_.push_back(i);
     }
@@ -76,8 +80,8 @@ class Reader : public ReaderBase {
  private:
   friend class Samples<T>;
   void give_back(eprosima::fastdds::dds::LoanableSequence<T>& data,
-                 eprosima::fastdds::dds::SampleInfoSeq& infos) noexcept {
-    return_raw(data, infos);
+                 eprosima::fastdds::dds::SampleInfoSeq& infos, std::uint64_t loan_ticket) noexcept {
+    return_raw(data, infos, loan_ticket);
   }
   bool still_valid(const T* sample, const eprosima::fastdds::dds::SampleInfo& info) {
     return still_valid_raw(sample, info);
