@@ -64,7 +64,6 @@ void Supervisor::start() {
     std::cerr << "thermovis-supervisor: removed " << stale.count << " stale data-sharing segments ("
               << stale.bytes / 1000000 << " MB) from /dev/shm\n";
   }
-  started_ = Clock::now();
   group_.start_all();
 }
 
@@ -116,10 +115,17 @@ void Supervisor::check_hung() {
   const auto now = Clock::now();
   for (const auto& status : group_.status()) {
     if (status.state != process::ServiceState::running) continue;
+    // A new process (first start or a restart after an exit) is judged from its own start:
+    // the health of the process it replaces says nothing about it.
+    auto& instance = instances_[status.name];
+    if (instance.pid != status.pid) {
+      instance = {status.pid, now};
+      last_health_.erase(health_key(status.name));
+    }
     const auto it = last_health_.find(health_key(status.name));
     const bool never = it == last_health_.end();
     const double silent_s =
-        std::chrono::duration<double>(now - (never ? started_ : it->second)).count();
+        std::chrono::duration<double>(now - (never ? instance.started : it->second)).count();
     if ((never && silent_s > config_.startup_grace_s) ||
         (!never && silent_s > config_.hung_after_s)) {
       group_.restart(status.name,

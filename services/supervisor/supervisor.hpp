@@ -89,7 +89,11 @@ class Supervisor {
   transport::Reader<RangeArray> ranges_in_;
   std::map<std::string, Health> health_;  // by service health key
   std::map<std::string, std::chrono::steady_clock::time_point> last_health_;
-  std::chrono::steady_clock::time_point started_;
+  struct Instance {
+    int pid = -1;
+    std::chrono::steady_clock::time_point started{};
+  };
+  std::map<std::string, Instance> instances_;  // by manifest name: the process being watched
   std::vector<double> latencies_ms_;
   std::map<Stage, std::vector<double>> stage_ms_;
   std::vector<LateFrame> late_;
