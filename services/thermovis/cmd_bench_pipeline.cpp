@@ -7,7 +7,9 @@
 #include <iostream>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include "command.hpp"
 #include "pipeline_session.hpp"
@@ -20,6 +22,7 @@ struct Options {
   double seconds = 30.0;
   double warmup_s = 5.0;
   bool json = false;
+  std::vector<std::string> kill;  // services to kill (SIGKILL) once each during the measurement
 };
 
 // Runs the session for `seconds`, or until a stop signal; false when stopped early.
@@ -43,7 +46,14 @@ int run_bench(const Options& opt) {
   }
   run_for(session, opt.warmup_s);
   session.reset_statistics();
-  run_for(session, opt.seconds);
+  // Kills spread evenly over the measured time, each with time to recover before the next.
+  const double slice = opt.seconds / static_cast<double>(opt.kill.size() + 1);
+  bool running = true;
+  for (const std::string& service : opt.kill) {
+    running = running && run_for(session, slice);
+    if (running) session.kill_service(service);
+  }
+  if (running) run_for(session, slice);
   const auto cpu = session.cpu();  // before stopping: the processes must still be there
   session.stop();
   const auto latency = session.latency();
@@ -60,6 +70,13 @@ int run_bench(const Options& opt) {
           {"rss_mb", p.rss_mb}};
     }
     j["processes"] = processes;
+    nlohmann::json outages = nlohmann::json::object();
+    for (const auto& o : session.outages()) {
+      outages[o.service] = o.recovered ? nlohmann::json{{"outage_ms", o.outage_ms},
+                                                        {"first_fresh_ms", o.first_fresh_ms}}
+                                       : nlohmann::json{{"outage_ms", nullptr}};
+    }
+    if (!opt.kill.empty()) j["outages"] = outages;
     std::cout << j.dump() << std::endl;
   } else {
     std::cout << thermovis::supervisor::summary_text(latency, session.deadline_ms());
@@ -67,6 +84,16 @@ int run_bench(const Options& opt) {
       std::cout << "  process " << std::setw(13) << std::left << p.service << std::right << " cpu "
                 << std::fixed << std::setprecision(1) << std::setw(6) << p.cpu_percent << " %  rss "
                 << std::setw(7) << p.rss_mb << " MB\n";
+    }
+    for (const auto& o : session.outages()) {
+      if (o.recovered) {
+        std::cout << "  killed " << std::setw(12) << std::left << o.service << std::right
+                  << " ranges stopped for " << std::fixed << std::setprecision(0) << o.outage_ms
+                  << " ms (first range of a new capture " << o.first_fresh_ms
+                  << " ms after the kill)\n";
+      } else {
+        std::cout << "  killed " << o.service << ": no range of a new capture before the end\n";
+      }
     }
     std::cout << thermovis::cli::errors_text(errors);
   }
@@ -88,6 +115,12 @@ THERMOVIS_COMMAND("bench pipeline",
                         ->capture_default_str()
                         ->check(CLI::NonNegativeNumber);
                     app.add_flag("--json", opt->json, "one JSON object");
+                    app.add_option("--kill", opt->kill,
+                                   "SERVICE[,SERVICE...]: kill each (SIGKILL) once, evenly "
+                                   "spread over the measured time; reports the outage of each")
+                        ->delimiter(',')
+                        ->check(
+                            CLI::IsMember({"bridge", "rectify-fuse", "detect", "match", "range"}));
                     return [opt] { return run_bench(*opt); };
                   });
 

@@ -2,6 +2,8 @@
 
 #include <unistd.h>
 
+#include <csignal>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -128,10 +130,37 @@ std::optional<sim::TargetTruth> PipelineSession::truth_for(std::uint64_t seq,
   return best;
 }
 
+void PipelineSession::kill_service(const std::string& name) {
+  for (const auto& status : supervisor_->services()) {
+    if (status.name != name) continue;
+    if (status.pid <= 0 || status.state != process::ServiceState::running)
+      throw std::invalid_argument("service '" + name + "' is not running");
+    killed_ns_.push_back(transport::now_ns());
+    killed_at_.push_back(std::chrono::steady_clock::now());
+    outages_.push_back({name});
+    ::kill(status.pid, SIGKILL);
+    return;
+  }
+  throw std::invalid_argument("no service '" + name + "' in the manifest");
+}
+
 std::vector<CheckedRange> PipelineSession::step() {
   std::vector<CheckedRange> out;
   for (const RangeArray& array : supervisor_->step()) {
     ++frames_;
+    const auto arrival = std::chrono::steady_clock::now();
+    for (std::size_t k = 0; k < outages_.size(); ++k) {
+      // The first range of a frame captured after the kill ends the outage.
+      if (outages_[k].recovered || array.capture_time_ns() <= killed_ns_[k]) continue;
+      outages_[k].recovered = true;
+      outages_[k].first_fresh_ms =
+          std::chrono::duration<double, std::milli>(arrival - killed_at_[k]).count();
+      // The gap users see: from the last range before it (frames in flight at the kill).
+      const auto before =
+          last_arrival_ == std::chrono::steady_clock::time_point{} ? killed_at_[k] : last_arrival_;
+      outages_[k].outage_ms = std::chrono::duration<double, std::milli>(arrival - before).count();
+    }
+    last_arrival_ = arrival;
     const double latency = transport::latency_ms(array.stamps(), array.capture_time_ns());
     for (const TargetRange& range : array.targets()) {
       CheckedRange c;

@@ -3,6 +3,7 @@
 // use it: the supervisor (in this process) starts the services of the manifest on a DDS domain,
 // and every range result is checked against the simulated scene's ground truth.
 #include <CLI/CLI.hpp>
+#include <chrono>
 #include <cstdint>
 #include <map>
 #include <memory>
@@ -64,6 +65,14 @@ struct ProcessCpu {
   double rss_mb = 0.0;       // resident memory now
 };
 
+// A service killed on purpose (SIGKILL) during a session, and how long the ranges stopped.
+struct ServiceOutage {
+  std::string service;
+  bool recovered = false;       // a range of a frame captured after the kill arrived
+  double first_fresh_ms = 0.0;  // kill to that range
+  double outage_ms = 0.0;       // the range before it (in flight at the kill) to that range
+};
+
 class PipelineSession {
  public:
   static constexpr double kTruthMatchOffsetM = 0.8;
@@ -78,6 +87,10 @@ class PipelineSession {
   // Starts the statistics again (after a warm-up): latency, ranging errors, CPU.
   void reset_statistics();
   void stop();
+  // SIGKILL to a running service of the manifest ("detect"); the supervisor restarts it and
+  // step() measures the outage. Throws std::invalid_argument for a service not running.
+  void kill_service(const std::string& name);
+  const std::vector<ServiceOutage>& outages() const { return outages_; }
 
   supervisor::LatencySummary latency() const { return supervisor_->summary(); }
   RangeErrorSummary errors() const;
@@ -102,6 +115,10 @@ class PipelineSession {
     double wall_s = 0.0;
   };
   std::map<int, CpuMark> cpu_marks_;  // by pid
+  std::vector<ServiceOutage> outages_;
+  std::vector<std::int64_t> killed_ns_;  // capture clock at each kill (transport::now_ns)
+  std::vector<std::chrono::steady_clock::time_point> killed_at_;
+  std::chrono::steady_clock::time_point last_arrival_{};
 };
 
 // The per-range line `thermovis run` prints, and its JSON form.
