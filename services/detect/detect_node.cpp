@@ -1,5 +1,7 @@
 #include "detect_node.hpp"
 
+#include <iostream>
+
 #include <cmath>
 #include <thread>
 
@@ -52,11 +54,25 @@ void DetectNode::run() {
     if (frames.empty()) continue;
     stats_.dropped += frames.size() - 1;  // only the newest is worth the time
     const std::size_t newest = frames.size() - 1;
-    if (stats_.processed + stats_.bad > 0 && frames[newest].seq() <= last_seq_) {
-      ++stats_.repeated;  // a frame seen before (or older): never processed twice
-      continue;
+    const std::uint64_t last_seq = order_.last_seq();
+    switch (order_.check(frames[newest].seq(), frames[newest].capture_time_ns())) {
+      case node::FrameOrder::Verdict::repeated:
+        ++stats_.repeated;  // a frame seen before: never processed twice
+        continue;
+      case node::FrameOrder::Verdict::stale:
+        ++stats_.bad;
+        health_.bad_input("rectified infrared frame " + std::to_string(frames[newest].seq()) +
+                          " captured before frame " + std::to_string(last_seq) +
+                          ": out of order, dropped");
+        continue;
+      case node::FrameOrder::Verdict::restarted:
+        std::cerr << "thermovis-detect: rectified infrared frames start again at "
+                  << frames[newest].seq() << " after " << last_seq
+                  << " with a later capture time (their writer restarted)" << std::endl;
+        break;
+      case node::FrameOrder::Verdict::next:
+        break;
     }
-    last_seq_ = frames[newest].seq();
     try {
       process(frames[newest]);
       if (!frames.still_valid(newest)) {

@@ -12,6 +12,7 @@
 
 #include "thermovis/detect/detectors.hpp"
 #include "thermovis/frames.h"
+#include "thermovis/node/frame_codec.hpp"
 #include "thermovis/node/health.hpp"
 #include "thermovis/node/pipeline_grid.hpp"
 #include "thermovis/perception.h"
@@ -57,7 +58,7 @@ class DetectNode {
   transport::Writer<DetectionArray> out_;
   node::HealthReporter health_;
   DetectStats stats_;
-  std::uint64_t last_seq_ = 0;  // newest frame taken
+  node::FrameOrder order_;  // of the rectified infrared frames taken
 };
 
 }  // namespace thermovis::detect_service

@@ -93,6 +93,7 @@ struct MatchNode::BandInput {
   Band band;
   transport::Reader<GridStereoFrame> reader;
   std::deque<Pair> pairs;  // oldest first
+  node::FrameOrder order;  // of the frames taken
 };
 
 MatchNode::MatchNode(transport::Participant& participant, const camera::Rig& rig,
@@ -132,7 +133,22 @@ void MatchNode::take_frames(BandInput& input) {
   for (std::size_t i = 0; i < frames.size(); ++i) {
     const GridStereoFrame& frame = frames[i];
     try {
-      if (!input.pairs.empty() && frame.seq() <= input.pairs.back().seq) continue;  // repeated
+      const std::uint64_t last_seq = input.order.last_seq();
+      switch (input.order.check(frame.seq(), frame.capture_time_ns())) {
+        case node::FrameOrder::Verdict::repeated:
+          continue;
+        case node::FrameOrder::Verdict::stale:
+          throw node::FrameError("frame " + std::to_string(frame.seq()) +
+                                 " captured before frame " + std::to_string(last_seq) +
+                                 ": out of order, dropped");
+        case node::FrameOrder::Verdict::restarted:
+          // The writer restarted and counts from the start again: the pairs kept are of the
+          // old count, which new detections must not meet.
+          input.pairs.clear();
+          break;
+        case node::FrameOrder::Verdict::next:
+          break;
+      }
       if (frame.eyes() == EYES_LEFT) {
         throw node::FrameError("frame " + std::to_string(frame.seq()) +
                                " carries the left eye only (thermovis-rectify-fuse fuses the "

@@ -1,6 +1,7 @@
 #include "range_node.hpp"
 
 #include <cmath>
+#include <set>
 #include <stdexcept>
 
 #include "thermovis/node/frame_codec.hpp"
@@ -79,14 +80,34 @@ void RangeNode::answer(const MatchArray& matches) {
   RangeArray out;
   out.frame_seq(matches.frame_seq());
   out.capture_time_ns(matches.capture_time_ns());
+  const std::string frame = "frame " + std::to_string(matches.frame_seq());
+  node::check_stamps(matches.stamps(), matches.capture_time_ns(), frame);
+  // The whole array is checked before any target is ranged: a bad array is rejected as a whole.
+  std::set<std::uint32_t> ids;
+  for (const TargetMatch& target : matches.targets()) {
+    const std::string name = "target " + std::to_string(target.target_id()) + " of " + frame;
+    if (!ids.insert(target.target_id()).second)
+      throw std::invalid_argument(name + ": target id given twice");
+    // BAND_UNKNOWN (a writer that does not say) is ranged as visible, like BAND_FUSED.
+    if (target.band() > BAND_FUSED) {
+      throw std::invalid_argument(name + ": unknown band " + std::to_string(target.band()));
+    }
+    for (std::size_t i = 0; i < target.points().size(); ++i) {
+      const PointMatch& p = target.points()[i];
+      if (!std::isfinite(p.left_x()) || !std::isfinite(p.left_y()) || !std::isfinite(p.right_x()) ||
+          !std::isfinite(p.right_y())) {
+        throw std::invalid_argument(name + ": point " + std::to_string(i) +
+                                    " has a non-finite coordinate");
+      }
+    }
+  }
   for (const TargetMatch& target : matches.targets()) {
     const cv::Rect box = node::to_rect(target.box());
     if (box.empty()) {
-      throw std::invalid_argument("target " + std::to_string(target.target_id()) + " of frame " +
-                                  std::to_string(matches.frame_seq()) +
+      throw std::invalid_argument("target " + std::to_string(target.target_id()) + " of " + frame +
                                   ": box with no area or a non-finite field");
     }
-    // range_target skips non-finite points and those outside the box.
+    // range_target skips points outside the box.
     const range::RangingGeometry& geometry =
         target.band() == BAND_INFRARED ? geometry_.infrared : geometry_.visible;
     range::TargetRange r =

@@ -1,6 +1,7 @@
 #include "rectify_fuse_node.hpp"
 
 #include <future>
+#include <iostream>
 
 #include "thermovis/node/frame_codec.hpp"
 #include "thermovis/node/service.hpp"
@@ -84,11 +85,24 @@ void RectifyFuseNode::run() {
     // Only the newest capture is worth processing; older ones are dropped (never queued).
     stats_.dropped += visible.size() - 1;
     const VisibleStereoFrame& vis = visible[visible.size() - 1];
-    if (stats_.processed > 0 && vis.seq() <= last_seq_) {
-      ++stats_.repeated;  // a capture seen before (or older): never processed twice
-      continue;
+    const std::uint64_t last_seq = order_.last_seq();
+    switch (order_.check(vis.seq(), vis.capture_time_ns())) {
+      case node::FrameOrder::Verdict::repeated:
+        ++stats_.repeated;  // a capture seen before: never processed twice
+        continue;
+      case node::FrameOrder::Verdict::stale:
+        ++stats_.bad;
+        health_.bad_input("visible frame " + std::to_string(vis.seq()) + " captured before frame " +
+                          std::to_string(last_seq) + ": out of order, dropped");
+        continue;
+      case node::FrameOrder::Verdict::restarted:
+        // The bridge restarted and counts from the start again: follow it.
+        std::cerr << "thermovis-rectify-fuse: raw frames start again at " << vis.seq() << " after "
+                  << last_seq << " with a later capture time (their writer restarted)" << std::endl;
+        break;
+      case node::FrameOrder::Verdict::next:
+        break;
     }
-    last_seq_ = vis.seq();
     // Its infrared partner (same seq) is published with it: look for it briefly.
     bool done = false;
     for (int attempt = 0; attempt < 10 && !done && !node::stop_requested(); ++attempt) {

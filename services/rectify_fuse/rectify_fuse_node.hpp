@@ -14,6 +14,7 @@
 #include "thermovis/fpga/remap.hpp"
 #include "thermovis/frames.h"
 #include "thermovis/fuse/fusion.hpp"
+#include "thermovis/node/frame_codec.hpp"
 #include "thermovis/node/health.hpp"
 #include "thermovis/node/pipeline_grid.hpp"
 #include "thermovis/transport/reader.hpp"
@@ -64,7 +65,7 @@ class RectifyFuseNode {
   transport::Writer<GridStereoFrame> fused_out_;
   node::HealthReporter health_;
   RectifyFuseStats stats_;
-  std::uint64_t last_seq_ = 0;  // newest capture taken
+  node::FrameOrder order_;  // of the visible frames taken
 };
 
 }  // namespace thermovis::rectify_fuse

@@ -1,10 +1,11 @@
 // libFuzzer target: frame decoding (node/frame_codec), i.e. the header fields of a frame as they
 // arrive from DDS. Data-sharing hands a reader the writer's memory itself, so every field can hold
-// anything: the input sets seq, pixel format, width, height and step of each frame type (and the
-// grid a reading service expects, and a detection box). Documented error: node::FrameError. A
-// view that is returned must lie inside its eye's array: its first and last pixel are read (the
-// frames are on the heap, so AddressSanitizer sees a read past the right eye) and its extent is
-// checked against the array (a read past the left eye would land in the right one).
+// anything: the input sets seq, pixel format, width, height, step, capture time and stage stamps
+// of each frame type (and the grid a reading service expects, and a detection box). Documented
+// error: node::FrameError. A view that is returned must lie inside its eye's array: its first and
+// last pixel are read (the frames are on the heap, so AddressSanitizer sees a read past the right
+// eye) and its extent is checked against the array (a read past the left eye would land in the
+// right one).
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
@@ -40,6 +41,13 @@ class Fields {
   std::size_t used_ = 0;
 };
 
+// Grid frames also say which eyes they carry.
+inline void set_eyes(thermovis::GridStereoFrame& frame, Fields& in) {
+  frame.eyes(in.next<std::uint32_t>());
+}
+inline void set_eyes(thermovis::VisibleStereoFrame&, Fields&) {}
+inline void set_eyes(thermovis::InfraredStereoFrame&, Fields&) {}
+
 template <class Frame>
 void set_header(Frame& frame, Fields& in) {
   frame.seq(in.next<std::uint64_t>());
@@ -47,6 +55,13 @@ void set_header(Frame& frame, Fields& in) {
   frame.width(in.next<std::uint32_t>());
   frame.height(in.next<std::uint32_t>());
   frame.step(in.next<std::uint32_t>());
+  frame.capture_time_ns(in.next<std::int64_t>());
+  for (thermovis::StageStamp& stamp : frame.stamps().stamps()) {
+    stamp.stage(in.next<std::uint32_t>());
+    stamp.duration_us(in.next<std::uint32_t>());
+    stamp.end_ns(in.next<std::int64_t>());
+  }
+  set_eyes(frame, in);
 }
 
 template <class Array>

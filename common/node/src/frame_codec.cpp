@@ -11,10 +11,15 @@ std::string size_text(std::uint32_t width, std::uint32_t height) {
 }
 
 // Checks the header of a frame against its array capacity; returns the Mat type.
+// Received frames also have their stamps checked; frames being filled (prepare()) do not: a
+// loaned sample's stamps are whatever its memory held until the writer sets them.
+enum class Stamps { check, ignore };
+
 template <class Frame>
-int checked_type(const char* what, const Frame& f, std::size_t capacity_bytes,
-                 PixelFormat expected = 0) {
+int checked_type(const char* what, const Frame& f, std::size_t capacity_bytes, PixelFormat expected,
+                 Stamps stamps) {
   const std::string frame = std::string(what) + " frame " + std::to_string(f.seq());
+  if (stamps == Stamps::check) check_stamps(f.stamps(), f.capture_time_ns(), frame);
   const PixelFormat format = f.pixel_format();
   if (expected != 0 && format != expected) {
     throw FrameError(frame + ": pixel format " + std::to_string(format) + ", expected " +
@@ -93,31 +98,47 @@ PixelFormat pixel_format_of(int cv_type) {
   }
 }
 
-cv::Mat view(const VisibleStereoFrame& f, Eye eye) {
-  const int type = checked_type("visible", f, f.left().size(), PIXEL_FORMAT_BGR8);
+namespace {
+
+cv::Mat view_of(const VisibleStereoFrame& f, Eye eye, Stamps stamps) {
+  const int type = checked_type("visible", f, f.left().size(), PIXEL_FORMAT_BGR8, stamps);
   return cv::Mat(static_cast<int>(f.height()), static_cast<int>(f.width()), type,
                  eye_data(f.left(), f.right(), eye));
 }
 
-cv::Mat view(const InfraredStereoFrame& f, Eye eye) {
-  const int type =
-      checked_type("infrared", f, f.left().size() * sizeof(std::uint16_t), PIXEL_FORMAT_MONO16);
+cv::Mat view_of(const InfraredStereoFrame& f, Eye eye, Stamps stamps) {
+  const int type = checked_type("infrared", f, f.left().size() * sizeof(std::uint16_t),
+                                PIXEL_FORMAT_MONO16, stamps);
   return cv::Mat(static_cast<int>(f.height()), static_cast<int>(f.width()), type,
                  eye_data(f.left(), f.right(), eye));
 }
 
-cv::Mat view(const GridStereoFrame& f, Eye eye) {
-  const int type = checked_type("grid", f, f.left().size());
+cv::Mat view_of(const GridStereoFrame& f, Eye eye, Stamps stamps) {
+  const int type = checked_type("grid", f, f.left().size(), 0, stamps);
+  if (stamps == Stamps::check) {
+    const std::string frame = "grid frame " + std::to_string(f.seq());
+    if (f.eyes() != EYES_BOTH && f.eyes() != EYES_LEFT)
+      throw FrameError(frame + ": unknown eye set " + std::to_string(f.eyes()));
+    // The right eye's bytes of a left-only frame were never written.
+    if (eye == Eye::right && f.eyes() == EYES_LEFT)
+      throw FrameError(frame + ": the right eye is not sent (left eye only)");
+  }
   return cv::Mat(static_cast<int>(f.height()), static_cast<int>(f.width()), type,
                  eye_data(f.left(), f.right(), eye));
 }
+
+}  // namespace
+
+cv::Mat view(const VisibleStereoFrame& f, Eye eye) { return view_of(f, eye, Stamps::check); }
+cv::Mat view(const InfraredStereoFrame& f, Eye eye) { return view_of(f, eye, Stamps::check); }
+cv::Mat view(const GridStereoFrame& f, Eye eye) { return view_of(f, eye, Stamps::check); }
 
 cv::Mat prepare(VisibleStereoFrame& f, Eye eye, cv::Size size) {
   f.pixel_format(PIXEL_FORMAT_BGR8);
   f.width(static_cast<std::uint32_t>(size.width));
   f.height(static_cast<std::uint32_t>(size.height));
   f.step(static_cast<std::uint32_t>(packed_step(f)));
-  return view(f, eye);
+  return view_of(f, eye, Stamps::ignore);
 }
 
 cv::Mat prepare(InfraredStereoFrame& f, Eye eye, cv::Size size) {
@@ -125,7 +146,7 @@ cv::Mat prepare(InfraredStereoFrame& f, Eye eye, cv::Size size) {
   f.width(static_cast<std::uint32_t>(size.width));
   f.height(static_cast<std::uint32_t>(size.height));
   f.step(static_cast<std::uint32_t>(packed_step(f)));
-  return view(f, eye);
+  return view_of(f, eye, Stamps::ignore);
 }
 
 cv::Mat prepare(GridStereoFrame& f, Eye eye, cv::Size size, int cv_type) {
@@ -133,18 +154,65 @@ cv::Mat prepare(GridStereoFrame& f, Eye eye, cv::Size size, int cv_type) {
   f.width(static_cast<std::uint32_t>(size.width));
   f.height(static_cast<std::uint32_t>(size.height));
   f.step(static_cast<std::uint32_t>(packed_step(f)));
-  return view(f, eye);
+  return view_of(f, eye, Stamps::ignore);
 }
 
 cv::Mat view(const GridStereoFrame& f, Eye eye, cv::Size grid) {
-  if (static_cast<int>(f.width()) != grid.width || static_cast<int>(f.height()) != grid.height) {
+  // The frame's own header first (an impossible size is named as such), then the grid.
+  cv::Mat image = view(f, eye);
+  if (image.cols != grid.width || image.rows != grid.height) {
     throw FrameError(
         "grid frame " + std::to_string(f.seq()) + ": " + size_text(f.width(), f.height()) +
         " image, this service's grid is " +
         size_text(static_cast<std::uint32_t>(grid.width), static_cast<std::uint32_t>(grid.height)) +
         " (give every service the same --grid-scale and --projection)");
   }
-  return view(f, eye);
+  return image;
+}
+
+void check_stamps(const PipelineStamps& stamps, std::int64_t capture_ns, const std::string& what) {
+  Stage previous_stage = STAGE_NONE;
+  std::int64_t previous_end_ns = capture_ns;
+  bool ended = false;
+  for (std::size_t i = 0; i < stamps.stamps().size(); ++i) {
+    const StageStamp& stamp = stamps.stamps()[i];
+    const std::string entry = what + ": stamp " + std::to_string(i);
+    if (stamp.stage() == STAGE_NONE) {
+      ended = true;
+      continue;
+    }
+    if (ended) throw FrameError(entry + " follows an unused entry");
+    if (stamp.stage() > STAGE_RANGE)
+      throw FrameError(entry + ": unknown stage " + std::to_string(stamp.stage()));
+    if (stamp.stage() <= previous_stage) {
+      throw FrameError(entry + ": stage " + std::to_string(stamp.stage()) + " after stage " +
+                       std::to_string(previous_stage) + " (stamps out of order)");
+    }
+    if (stamp.end_ns() < previous_end_ns - kStampSkewNs) {
+      throw FrameError(entry + ": stage " + std::to_string(stamp.stage()) + " ends " +
+                       std::to_string((previous_end_ns - stamp.end_ns()) / 1000000) +
+                       " ms before " +
+                       (previous_stage == STAGE_NONE ? std::string("the capture")
+                                                     : "stage " + std::to_string(previous_stage)) +
+                       " (stamps out of order)");
+    }
+    previous_stage = stamp.stage();
+    previous_end_ns = stamp.end_ns();
+  }
+}
+
+FrameOrder::Verdict FrameOrder::check(std::uint64_t seq, std::int64_t capture_ns) {
+  Verdict verdict = Verdict::next;
+  if (any_ && seq == last_seq_ && capture_ns == last_capture_ns_) {
+    return Verdict::repeated;
+  } else if (any_ && seq <= last_seq_) {
+    if (capture_ns <= last_capture_ns_) return Verdict::stale;
+    verdict = Verdict::restarted;
+  }
+  any_ = true;
+  last_seq_ = seq;
+  last_capture_ns_ = capture_ns;
+  return verdict;
 }
 
 cv::Rect to_rect(const Box2D& box) {

@@ -1,0 +1,521 @@
+// Corrupt inputs on every topic a service reads, each service as its own process on a private DDS
+// domain with this test as the DDS application on the other side. Each kind of corruption (wrong
+// sizes, truncated images, impossible values: zero or negative sizes, unknown pixel formats, a
+// wrong row step, NaN/inf in boxes and points, unknown bands, repeated ids, stage stamps out of
+// order, a capture arriving after a newer one) is sent alone; the service must count it as an
+// error in its health, whose message names it, and then serve the next good sample.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <map>
+#include <opencv2/imgproc.hpp>
+#include <optional>
+#include <thread>
+
+#include "pipeline_harness.hpp"
+#include "thermovis/node/frame_codec.hpp"
+#include "thermovis/node/pipeline_grid.hpp"
+#include "thermovis/range/ranging.hpp"
+#include "thermovis/runtime/rig_io.hpp"
+#include "thermovis/test/child_process.hpp"
+#include "thermovis/test/data.hpp"
+#include "thermovis/transport/qos.hpp"
+#include "thermovis/transport/reader.hpp"
+#include "thermovis/transport/topics.hpp"
+#include "thermovis/transport/writer.hpp"
+
+namespace {
+
+using namespace std::chrono_literals;
+using thermovis::test::ChildProcess;
+namespace tv = thermovis;
+namespace topics = tv::transport::topics;
+
+constexpr float kNaN = std::numeric_limits<float>::quiet_NaN();
+constexpr float kInf = std::numeric_limits<float>::infinity();
+constexpr std::int64_t kSecond = 1'000'000'000;
+
+// One service process and the health it publishes.
+class Service {
+ public:
+  Service(const std::string& executable, std::vector<std::string> extra = {})
+      : domain_(tv::test::private_domain()),
+        dir_(tv::test::temp_dir("corrupt")),
+        name_(executable) {
+    participant_ = tv::test::loopback_participant(domain_, "corrupt-test");
+    health_ = std::make_unique<tv::transport::Reader<tv::Health>>(*participant_, topics::kHealth,
+                                                                  tv::transport::state_topic_qos());
+    std::vector<std::string> argv{(tv::test::bin_dir() / executable).string(), "--domain",
+                                  std::to_string(domain_), "--profile",
+                                  tv::transport::kLoopbackProfile};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    process_ = std::make_unique<ChildProcess>(argv, dir_ / (executable + ".log"));
+  }
+  ~Service() {
+    process_.reset();
+    std::filesystem::remove_all(dir_);
+  }
+
+  // The last health satisfying `ok` within `timeout`.
+  std::optional<tv::Health> wait_health(const std::function<bool(const tv::Health&)>& ok,
+                                        std::chrono::seconds timeout) {
+    const auto until = std::chrono::steady_clock::now() + timeout;
+    while (std::chrono::steady_clock::now() < until) {
+      health_->wait_for_data(100ms);
+      auto samples = health_->take();
+      for (std::size_t i = 0; i < samples.size(); ++i)
+        if (samples[i].service().to_string() == name_) last_ = samples[i];
+      if (last_ && ok(*last_)) return last_;
+    }
+    return std::nullopt;
+  }
+
+  bool ready(std::chrono::seconds timeout) {
+    return wait_health(
+               [](const tv::Health& h) {
+                 return h.message().to_string().find("waiting") != std::string::npos;
+               },
+               timeout)
+        .has_value();
+  }
+
+  // Sends one corrupt sample (send()) and checks that the service counts one more error whose
+  // message holds `says`.
+  void expect_named(const std::string& kind, const std::function<void()>& send,
+                    const std::string& says) {
+    SCOPED_TRACE(kind);
+    const std::uint32_t before = last_ ? last_->errors() : 0;
+    send();
+    const auto health = wait_health([&](const tv::Health& h) { return h.errors() > before; }, 30s);
+    ASSERT_TRUE(health) << kind << " was not reported\n" << process_->log();
+    EXPECT_EQ(health->errors(), before + 1) << health->message().to_string();
+    EXPECT_NE(health->message().to_string().find(says), std::string::npos)
+        << kind << ": '" << says << "' not in: " << health->message().to_string();
+    EXPECT_EQ(health->state(), tv::HEALTH_DEGRADED);
+  }
+
+  // Stops the service: it exits cleanly and its log names the problems too.
+  void stop_and_check_log(const std::vector<std::string>& says) {
+    process_->signal(SIGTERM);
+    EXPECT_EQ(process_->wait(30s), 0) << process_->log();
+    for (const auto& fragment : says)
+      EXPECT_NE(process_->log().find(fragment), std::string::npos) << fragment << " not in log";
+  }
+
+  tv::transport::Participant& participant() { return *participant_; }
+  std::string log() const { return process_->log(); }
+
+ private:
+  int domain_;
+  std::filesystem::path dir_;
+  std::string name_;
+  std::unique_ptr<tv::transport::Participant> participant_;
+  std::unique_ptr<tv::transport::Reader<tv::Health>> health_;
+  std::optional<tv::Health> last_;
+  std::unique_ptr<ChildProcess> process_;
+};
+
+template <class T>
+bool receive(tv::transport::Reader<T>& reader, const std::function<bool(const T&)>& ok,
+             std::chrono::seconds timeout) {
+  const auto until = std::chrono::steady_clock::now() + timeout;
+  while (std::chrono::steady_clock::now() < until) {
+    reader.wait_for_data(100ms);
+    auto samples = reader.take();
+    for (std::size_t i = 0; i < samples.size(); ++i)
+      if (ok(samples[i])) return true;
+  }
+  return false;
+}
+
+tv::Box2D box2d(float x, float y, float width, float height) {
+  tv::Box2D box;
+  box.x(x);
+  box.y(y);
+  box.width(width);
+  box.height(height);
+  return box;
+}
+
+// Stamps of the stages a sample went through, ending at the given times (ns).
+tv::PipelineStamps stamps(std::initializer_list<std::pair<tv::Stage, std::int64_t>> stages) {
+  tv::PipelineStamps out;
+  std::size_t i = 0;
+  for (const auto& [stage, end_ns] : stages) {
+    out.stamps()[i].stage(stage);
+    out.stamps()[i].duration_us(1000);
+    out.stamps()[i].end_ns(end_ns);
+    ++i;
+  }
+  return out;
+}
+
+tv::rectify::StereoGeometry pipeline_geometry() {
+  return tv::node::pipeline_geometry(tv::runtime::load_rig(tv::runtime::default_rig_path()),
+                                     tv::node::GridOptions{});
+}
+
+// A target 12 m ahead with the correspondences the matcher would send for it.
+tv::TargetMatch target_at_12m(std::uint32_t id) {
+  const auto geometry = pipeline_geometry();
+  tv::TargetMatch target;
+  target.target_id(id);
+  target.label("marker");
+  target.band(tv::BAND_VISIBLE);
+  Eigen::Vector2d centre;
+  double disparity = 0;
+  tv::range::project_point(geometry.grid, geometry.baseline_m, {0.3, 0.2, 12.0}, centre, disparity);
+  target.box(
+      box2d(static_cast<float>(centre.x() - 10), static_cast<float>(centre.y() - 10), 20.f, 20.f));
+  for (int dy = -6; dy <= 6; dy += 3) {
+    for (int dx = -6; dx <= 6; dx += 3) {
+      Eigen::Vector2d px;
+      double d = 0;
+      tv::range::project_point(geometry.grid, geometry.baseline_m,
+                               {0.3 + dx * 0.01, 0.2 + dy * 0.01, 12.0}, px, d);
+      tv::PointMatch m;
+      m.left_x(static_cast<float>(px.x()));
+      m.left_y(static_cast<float>(px.y()));
+      m.right_x(static_cast<float>(px.x() - d));
+      m.right_y(static_cast<float>(px.y()));
+      target.points().push_back(m);
+    }
+  }
+  return target;
+}
+
+TEST(Corrupt, RangeNamesEveryBadMatchArrayAndServesTheNextGoodOne) {
+  Service range("thermovis-range");
+  tv::transport::Writer<tv::MatchArray> matches(range.participant(), topics::kMatches,
+                                                tv::transport::event_topic_qos());
+  tv::transport::Reader<tv::RangeArray> ranges(range.participant(), topics::kRanges,
+                                               tv::transport::event_topic_qos());
+  ASSERT_TRUE(range.ready(60s)) << range.log();
+  ASSERT_TRUE(matches.wait_for_readers(1, 10000ms));
+  ASSERT_TRUE(ranges.wait_for_writers(1, 10000ms));
+
+  std::uint64_t seq = 100;
+  const std::int64_t t0 = 1'700'000'000 * kSecond;
+  // A good array of one target, then broken by `corrupt`.
+  auto send = [&](const std::function<void(tv::MatchArray&)>& corrupt) {
+    return [&, corrupt] {
+      tv::MatchArray a;
+      a.frame_seq(++seq);
+      a.capture_time_ns(t0 + static_cast<std::int64_t>(seq) * 20'000'000);
+      a.targets().push_back(target_at_12m(7));
+      corrupt(a);
+      matches.write(a);
+    };
+  };
+  range.expect_named("NaN in a box", send([](tv::MatchArray& a) { a.targets()[0].box().x(kNaN); }),
+                     "non-finite field");
+  range.expect_named("inf in a point",
+                     send([](tv::MatchArray& a) { a.targets()[0].points()[3].right_x(kInf); }),
+                     "point 3 has a non-finite coordinate");
+  range.expect_named("negative box size",
+                     send([](tv::MatchArray& a) { a.targets()[0].box().width(-20.f); }),
+                     "box with no area");
+  range.expect_named("unknown band", send([](tv::MatchArray& a) { a.targets()[0].band(9); }),
+                     "unknown band 9");
+  range.expect_named("a target id twice",
+                     send([](tv::MatchArray& a) { a.targets().push_back(target_at_12m(7)); }),
+                     "target 7 of frame 105: target id given twice");
+  range.expect_named("stages out of order", send([&](tv::MatchArray& a) {
+                       const std::int64_t c = a.capture_time_ns();
+                       a.stamps(stamps({{tv::STAGE_BRIDGE, c + 1'000'000},
+                                        {tv::STAGE_DETECT, c + 5'000'000},
+                                        {tv::STAGE_RECTIFY_FUSE, c + 9'000'000}}));
+                     }),
+                     "stage 2 after stage 3 (stamps out of order)");
+  range.expect_named("an unknown stage", send([&](tv::MatchArray& a) {
+                       a.stamps(stamps({{42, a.capture_time_ns() + 1'000'000}}));
+                     }),
+                     "unknown stage 42");
+  range.expect_named("a stage ending before the capture", send([&](tv::MatchArray& a) {
+                       a.stamps(stamps({{tv::STAGE_BRIDGE, a.capture_time_ns() - 10 * kSecond}}));
+                     }),
+                     "ends 10000 ms before the capture");
+
+  // The next good array is ranged.
+  send([&](tv::MatchArray& a) {
+    const std::int64_t c = a.capture_time_ns();
+    a.stamps(stamps({{tv::STAGE_BRIDGE, c + 1'000'000}, {tv::STAGE_MATCH, c + 9'000'000}}));
+  })();
+  std::optional<tv::RangeArray> answer;
+  ASSERT_TRUE(receive<tv::RangeArray>(
+      ranges,
+      [&](const tv::RangeArray& a) {
+        if (a.frame_seq() == seq) answer = a;
+        return answer.has_value();
+      },
+      30s))
+      << range.log();
+  ASSERT_EQ(answer->targets().size(), 1u);
+  EXPECT_NEAR(answer->targets()[0].distance_m(), std::sqrt(0.3 * 0.3 + 0.2 * 0.2 + 144.0) + 0.033,
+              0.05);
+  range.stop_and_check_log({"point 3 has a non-finite coordinate", "unknown band 9"});
+}
+
+// A rectified infrared pair (raw counts) on the pipeline grid: a 25 C background with a warm
+// person-sized block (noise of 30 counts), as detection sees them.
+void fill_infrared(tv::GridStereoFrame& frame, cv::Size grid, std::uint64_t seq,
+                   std::int64_t capture_ns) {
+  for (const auto eye : {tv::node::Eye::left, tv::node::Eye::right}) {
+    cv::Mat image = tv::node::prepare(frame, eye, grid, CV_16UC1);
+    cv::randn(image, 8000, 30);
+    image(cv::Rect(grid.width / 2, grid.height / 2, 20, 50)).setTo(9500);
+  }
+  frame.eyes(tv::EYES_BOTH);
+  frame.seq(seq);
+  frame.capture_time_ns(capture_ns);
+  frame.stamps(stamps({{tv::STAGE_BRIDGE, capture_ns + 1'000'000},
+                       {tv::STAGE_RECTIFY_FUSE, capture_ns + 6'000'000}}));
+}
+
+TEST(Corrupt, DetectNamesEveryBadFrameAndServesTheNextGoodOne) {
+  Service detect("thermovis-detect");
+  tv::transport::Writer<tv::GridStereoFrame> infrared(
+      detect.participant(), topics::kRectifiedInfrared, tv::transport::frame_topic_qos());
+  tv::transport::Reader<tv::DetectionArray> detections(detect.participant(), topics::kDetections,
+                                                       tv::transport::event_topic_qos());
+  ASSERT_TRUE(detect.ready(60s)) << detect.log();
+  ASSERT_TRUE(infrared.wait_for_readers(1, 10000ms));
+  ASSERT_TRUE(detections.wait_for_writers(1, 10000ms));
+
+  const cv::Size grid = pipeline_geometry().grid.image_size();
+  const std::int64_t t0 = 1'700'000'000 * kSecond;
+  std::uint64_t seq = 10;
+  auto send = [&](const std::function<void(tv::GridStereoFrame&)>& corrupt) {
+    return [&, corrupt] {
+      auto loan = infrared.loan();
+      ++seq;
+      fill_infrared(*loan, grid, seq, t0 + static_cast<std::int64_t>(seq) * 20'000'000);
+      corrupt(*loan);
+      infrared.publish(std::move(loan));
+    };
+  };
+  const std::string w = std::to_string(grid.width), h = std::to_string(grid.height);
+  detect.expect_named("another grid", send([&](tv::GridStereoFrame& f) {
+                        f.width(f.width() - 2);
+                        f.step(f.width() * 2);
+                      }),
+                      std::to_string(grid.width - 2) + "x" + h + " image, this service's grid is");
+  detect.expect_named("an unknown pixel format",
+                      send([](tv::GridStereoFrame& f) { f.pixel_format(9); }),
+                      "unknown pixel format 9");
+  detect.expect_named("colour instead of counts", send([&](tv::GridStereoFrame& f) {
+                        f.pixel_format(tv::PIXEL_FORMAT_BGR8);
+                        f.step(f.width() * 3);
+                      }),
+                      "expected MONO8 or MONO16");
+  detect.expect_named("an unknown eye set", send([](tv::GridStereoFrame& f) { f.eyes(5); }),
+                      "unknown eye set 5");
+  detect.expect_named("a zero height", send([](tv::GridStereoFrame& f) { f.height(0); }),
+                      "empty image");
+  detect.expect_named("a negative width",
+                      send([](tv::GridStereoFrame& f) { f.width(static_cast<std::uint32_t>(-1)); }),
+                      "does not fit");
+  detect.expect_named("a padded row step",
+                      send([](tv::GridStereoFrame& f) { f.step(f.step() + 64); }),
+                      "step " + std::to_string(grid.width * 2 + 64) + " bytes");
+  detect.expect_named("stages out of order", send([](tv::GridStereoFrame& f) {
+                        f.stamps(stamps({{tv::STAGE_RECTIFY_FUSE, f.capture_time_ns() + 1000},
+                                         {tv::STAGE_BRIDGE, f.capture_time_ns() + 2000}}));
+                      }),
+                      "stamps out of order");
+  // A capture older than the last one, arriving late (a newer one was taken before).
+  const std::uint64_t last = seq;
+  detect.expect_named("an older capture", send([&](tv::GridStereoFrame& f) {
+                        f.seq(last - 5);
+                        f.capture_time_ns(t0 + static_cast<std::int64_t>(last - 5) * 20'000'000);
+                      }),
+                      "captured before frame " + std::to_string(last) + ": out of order");
+
+  send([](tv::GridStereoFrame&) {})();
+  std::optional<tv::DetectionArray> answer;
+  ASSERT_TRUE(receive<tv::DetectionArray>(
+      detections,
+      [&](const tv::DetectionArray& a) {
+        if (a.frame_seq() == seq) answer = a;
+        return answer.has_value();
+      },
+      30s))
+      << detect.log();
+  // The warm block is found where it is.
+  ASSERT_GE(answer->detections().size(), 1u) << detect.log();
+  const cv::Rect found = tv::node::to_rect(answer->detections()[0].box());
+  EXPECT_TRUE(found.contains({grid.width / 2 + 10, grid.height / 2 + 25})) << found;
+  detect.stop_and_check_log({"unknown pixel format 9", "stamps out of order"});
+}
+
+TEST(Corrupt, RectifyFuseNamesEveryBadRawFrameAndServesTheNextGoodOne) {
+  Service rf("thermovis-rectify-fuse");
+  tv::transport::Writer<tv::VisibleStereoFrame> visible(rf.participant(), topics::kVisibleFrames,
+                                                        tv::transport::frame_topic_qos());
+  tv::transport::Writer<tv::InfraredStereoFrame> infrared(rf.participant(), topics::kInfraredFrames,
+                                                          tv::transport::frame_topic_qos());
+  tv::transport::Reader<tv::GridStereoFrame> fused(rf.participant(), topics::kFused,
+                                                   tv::transport::frame_topic_qos());
+  ASSERT_TRUE(rf.ready(120s)) << rf.log();
+  ASSERT_TRUE(visible.wait_for_readers(1, 10000ms));
+  ASSERT_TRUE(infrared.wait_for_readers(1, 10000ms));
+  ASSERT_TRUE(fused.wait_for_writers(1, 10000ms));
+
+  const std::int64_t t0 = 1'700'000'000 * kSecond;
+  std::uint64_t seq = 0;
+  using Corrupt = std::function<void(tv::VisibleStereoFrame&, tv::InfraredStereoFrame&)>;
+  auto send = [&](const Corrupt& corrupt) {
+    return [&, corrupt] {
+      ++seq;
+      const std::int64_t capture = t0 + static_cast<std::int64_t>(seq) * 20'000'000;
+      const auto frame_stamps = stamps({{tv::STAGE_BRIDGE, capture + 1'000'000}});
+      auto ir = infrared.loan();
+      for (const auto eye : {tv::node::Eye::left, tv::node::Eye::right})
+        tv::node::prepare(*ir, eye, {1024, 768}).setTo(8000);
+      ir->seq(seq);
+      ir->capture_time_ns(capture);
+      ir->stamps(frame_stamps);
+      auto vis = visible.loan();
+      for (const auto eye : {tv::node::Eye::left, tv::node::Eye::right})
+        tv::node::prepare(*vis, eye, {1920, 1080}).setTo(cv::Scalar(90, 100, 110));
+      vis->seq(seq);
+      vis->capture_time_ns(capture);
+      vis->stamps(frame_stamps);
+      corrupt(*vis, *ir);
+      infrared.publish(std::move(ir));
+      visible.publish(std::move(vis));
+    };
+  };
+  rf.expect_named("an unknown pixel format", send([](auto& vis, auto&) { vis.pixel_format(7); }),
+                  "pixel format 7, expected 1");
+  rf.expect_named("infrared in 8 bits",
+                  send([](auto&, auto& ir) { ir.pixel_format(tv::PIXEL_FORMAT_MONO8); }),
+                  "pixel format 2, expected 3");
+  rf.expect_named("a zero width", send([](auto& vis, auto&) { vis.width(0); }), "empty image");
+  rf.expect_named("a negative height",
+                  send([](auto& vis, auto&) { vis.height(static_cast<std::uint32_t>(-1080)); }),
+                  "does not fit");
+  rf.expect_named("a truncated image", send([](auto& vis, auto&) { vis.height(540); }),
+                  "input image is 1920x540 but the table was made for a 1920x1080 camera");
+  rf.expect_named("a wrong row step", send([](auto&, auto& ir) { ir.step(1024); }),
+                  "step 1024 bytes, the packed rows of a 1024x768 image are 2048");
+  rf.expect_named("stamps before the capture", send([](auto& vis, auto&) {
+                    vis.stamps(stamps({{tv::STAGE_BRIDGE, vis.capture_time_ns() - 5 * kSecond}}));
+                  }),
+                  "ends 5000 ms before the capture");
+
+  send([](auto&, auto&) {})();
+  ASSERT_TRUE(receive<tv::GridStereoFrame>(
+      fused, [&](const tv::GridStereoFrame& f) { return f.seq() == seq; }, 30s))
+      << rf.log();
+  rf.stop_and_check_log({"pixel format 7, expected 1", "1920x540"});
+}
+
+// A textured pair on the pipeline grid whose right eye is the left shifted by `shift` columns.
+void fill_textured_pair(tv::GridStereoFrame& frame, cv::Size grid, int shift, std::uint64_t seq,
+                        std::int64_t capture_ns) {
+  cv::Mat noise(grid, CV_8UC1), blurred;
+  cv::RNG rng(7);
+  rng.fill(noise, cv::RNG::UNIFORM, 0, 256);
+  cv::GaussianBlur(noise, blurred, cv::Size(5, 5), 1.2);
+  cv::Mat left = tv::node::prepare(frame, tv::node::Eye::left, grid, CV_8UC1);
+  cv::Mat right = tv::node::prepare(frame, tv::node::Eye::right, grid, CV_8UC1);
+  blurred.copyTo(left);
+  right.setTo(0);
+  blurred.colRange(shift, grid.width).copyTo(right.colRange(0, grid.width - shift));
+  frame.eyes(tv::EYES_BOTH);
+  frame.seq(seq);
+  frame.capture_time_ns(capture_ns);
+  frame.stamps(stamps({{tv::STAGE_BRIDGE, capture_ns + 1'000'000},
+                       {tv::STAGE_RECTIFY_FUSE, capture_ns + 9'000'000}}));
+}
+
+TEST(Corrupt, MatchNamesBadFramesAndDetectionsAndServesTheNextGoodOnes) {
+  Service match("thermovis-match", {"--band", "fused"});
+  tv::transport::Writer<tv::GridStereoFrame> fused(match.participant(), topics::kFused,
+                                                   tv::transport::frame_topic_qos());
+  tv::transport::Writer<tv::DetectionArray> detections(match.participant(), topics::kDetections,
+                                                       tv::transport::event_topic_qos());
+  tv::transport::Reader<tv::MatchArray> matches(match.participant(), topics::kMatches,
+                                                tv::transport::event_topic_qos());
+  ASSERT_TRUE(match.ready(60s)) << match.log();
+  ASSERT_TRUE(fused.wait_for_readers(1, 10000ms));
+  ASSERT_TRUE(detections.wait_for_readers(1, 10000ms));
+  ASSERT_TRUE(matches.wait_for_writers(1, 10000ms));
+
+  const cv::Size grid = pipeline_geometry().grid.image_size();
+  const std::int64_t t0 = 1'700'000'000 * kSecond;
+  const int shift = 9;
+  std::uint64_t seq = 20;
+  auto capture_of = [&](std::uint64_t s) { return t0 + static_cast<std::int64_t>(s) * 20'000'000; };
+  auto send_frame = [&](const std::function<void(tv::GridStereoFrame&)>& corrupt) {
+    return [&, corrupt] {
+      auto loan = fused.loan();
+      ++seq;
+      fill_textured_pair(*loan, grid, shift, seq, capture_of(seq));
+      corrupt(*loan);
+      fused.publish(std::move(loan));
+    };
+  };
+  match.expect_named("an unknown pixel format",
+                     send_frame([](tv::GridStereoFrame& f) { f.pixel_format(9); }),
+                     "unknown pixel format 9");
+  match.expect_named("16-bit pixels in the fused band", send_frame([](tv::GridStereoFrame& f) {
+                       f.pixel_format(tv::PIXEL_FORMAT_MONO16);
+                       f.step(f.width() * 2);
+                     }),
+                     "16-bit pixels in an 8-bit band");
+  match.expect_named("the left eye only",
+                     send_frame([](tv::GridStereoFrame& f) { f.eyes(tv::EYES_LEFT); }),
+                     "left eye only");
+  match.expect_named("another grid",
+                     send_frame([](tv::GridStereoFrame& f) { f.height(f.height() / 2); }),
+                     "this service's grid is");
+  match.expect_named("stages out of order", send_frame([](tv::GridStereoFrame& f) {
+                       f.stamps(stamps({{tv::STAGE_MATCH, f.capture_time_ns() + 1000},
+                                        {tv::STAGE_DETECT, f.capture_time_ns() + 2000}}));
+                     }),
+                     "stamps out of order");
+
+  // A good frame, then detections for it: broken ones first.
+  send_frame([](tv::GridStereoFrame&) {})();
+  const std::uint64_t good = seq;
+  auto send_detection = [&](tv::Box2D box) {
+    return [&, box] {
+      tv::DetectionArray a;
+      a.frame_seq(good);
+      a.capture_time_ns(capture_of(good));
+      tv::Detection d;
+      d.target_id(3);
+      d.label("person");
+      d.score(0.9f);
+      d.box(box);
+      a.detections().push_back(d);
+      detections.write(a);
+    };
+  };
+  match.expect_named("inf in a box", send_detection(box2d(400.f, 200.f, kInf, 60.f)),
+                     "non-finite field");
+  match.expect_named("a negative height", send_detection(box2d(400.f, 200.f, 40.f, -60.f)),
+                     "box with no area");
+  send_detection(box2d(400.f, 200.f, 40.f, 60.f))();
+  std::optional<tv::MatchArray> answer;
+  ASSERT_TRUE(receive<tv::MatchArray>(
+      matches,
+      [&](const tv::MatchArray& a) {
+        if (a.frame_seq() == good) answer = a;
+        return answer.has_value();
+      },
+      30s))
+      << match.log();
+  ASSERT_EQ(answer->targets().size(), 1u);
+  ASSERT_GE(answer->targets()[0].points().size(), 10u);
+  for (const tv::PointMatch& p : answer->targets()[0].points())
+    EXPECT_NEAR(p.left_x() - p.right_x(), shift, 0.2);
+  match.stop_and_check_log({"unknown pixel format 9", "non-finite field"});
+}
+
+}  // namespace
