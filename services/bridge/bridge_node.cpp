@@ -7,6 +7,7 @@
 #include "thermovis/node/service.hpp"
 #include "thermovis/transport/clock.hpp"
 #include "thermovis/transport/qos.hpp"
+#include "thermovis/transport/stamps.hpp"
 #include "thermovis/transport/topics.hpp"
 
 namespace thermovis::bridge {
@@ -60,11 +61,11 @@ bool BridgeNode::publish_capture(std::int64_t index) {
   (*vis)->seq(static_cast<std::uint64_t>(index));
   (*vis)->capture_time_ns(capture_ns);
   (*vis)->stamps(PipelineStamps{});
-  node::append_stamp((*vis)->stamps(), STAGE_BRIDGE, capture_ns, done_ns);
+  transport::append_stamp((*vis)->stamps(), STAGE_BRIDGE, capture_ns, done_ns);
   (*ir)->seq(static_cast<std::uint64_t>(index));
   (*ir)->capture_time_ns(capture_ns);
   (*ir)->stamps(PipelineStamps{});
-  node::append_stamp((*ir)->stamps(), STAGE_BRIDGE, capture_ns, done_ns);
+  transport::append_stamp((*ir)->stamps(), STAGE_BRIDGE, capture_ns, done_ns);
   infrared_.publish(std::move(*ir));
   visible_.publish(std::move(*vis));
   ++stats_.published;

@@ -9,6 +9,7 @@
 #include "thermovis/node/service.hpp"
 #include "thermovis/transport/clock.hpp"
 #include "thermovis/transport/qos.hpp"
+#include "thermovis/transport/stamps.hpp"
 #include "thermovis/transport/topics.hpp"
 
 namespace thermovis::detect_service {
@@ -142,7 +143,7 @@ void DetectNode::process(const GridStereoFrame& infrared) {
   }
   stats_.detections += found.size();
   out.stamps(infrared.stamps());
-  node::append_stamp(out.stamps(), STAGE_DETECT, start_ns, transport::now_ns());
+  transport::append_stamp(out.stamps(), STAGE_DETECT, start_ns, transport::now_ns());
   out_.write(out);
 }
 

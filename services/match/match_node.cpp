@@ -9,6 +9,7 @@
 #include "thermovis/range/ranging.hpp"
 #include "thermovis/transport/clock.hpp"
 #include "thermovis/transport/qos.hpp"
+#include "thermovis/transport/stamps.hpp"
 #include "thermovis/transport/topics.hpp"
 
 namespace thermovis::match_service {
@@ -286,7 +287,7 @@ void MatchNode::answer(const DetectionArray& detections) {
     return;
   }
   out.stamps(detections.stamps());
-  node::append_stamp(out.stamps(), STAGE_MATCH, start_ns, transport::now_ns());
+  transport::append_stamp(out.stamps(), STAGE_MATCH, start_ns, transport::now_ns());
   out_.write(out);
   ++stats_.processed;
   health_.frame_processed();

@@ -9,6 +9,7 @@
 #include "thermovis/range/stereo_ranger.hpp"
 #include "thermovis/transport/clock.hpp"
 #include "thermovis/transport/qos.hpp"
+#include "thermovis/transport/stamps.hpp"
 #include "thermovis/transport/topics.hpp"
 
 namespace thermovis::range_service {
@@ -137,7 +138,7 @@ void RangeNode::answer(const MatchArray& matches) {
   }
   out.stamps(matches.stamps());
   const std::int64_t end_ns = transport::now_ns();
-  node::append_stamp(out.stamps(), STAGE_RANGE, start_ns, end_ns);
+  transport::append_stamp(out.stamps(), STAGE_RANGE, start_ns, end_ns);
   ranges_out_.write(out);
   FrameTiming timing;
   timing.frame_seq(out.frame_seq());

@@ -7,6 +7,7 @@
 #include "thermovis/node/service.hpp"
 #include "thermovis/transport/clock.hpp"
 #include "thermovis/transport/qos.hpp"
+#include "thermovis/transport/stamps.hpp"
 #include "thermovis/transport/topics.hpp"
 
 namespace thermovis::rectify_fuse {
@@ -28,7 +29,7 @@ void copy_header(const VisibleStereoFrame& from, GridStereoFrame& to, std::int64
   to.seq(from.seq());
   to.capture_time_ns(from.capture_time_ns());
   to.stamps(from.stamps());
-  node::append_stamp(to.stamps(), STAGE_RECTIFY_FUSE, start_ns, transport::now_ns());
+  transport::append_stamp(to.stamps(), STAGE_RECTIFY_FUSE, start_ns, transport::now_ns());
 }
 
 }  // namespace

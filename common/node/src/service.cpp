@@ -77,15 +77,4 @@ std::chrono::nanoseconds deadline_from_ms(double milliseconds) {
   return std::chrono::nanoseconds(static_cast<std::int64_t>(milliseconds * 1e6));
 }
 
-void append_stamp(PipelineStamps& stamps, Stage stage, std::int64_t start_ns, std::int64_t end_ns) {
-  auto& entries = stamps.stamps();
-  std::size_t slot = 0;
-  while (slot + 1 < entries.size() && entries[slot].stage() != STAGE_NONE) ++slot;
-  StageStamp& stamp = entries[slot];
-  stamp.stage(stage);
-  stamp.duration_us(
-      static_cast<std::uint32_t>(std::max<std::int64_t>(0, end_ns - start_ns) / 1000));
-  stamp.end_ns(end_ns);
-}
-
 }  // namespace thermovis::node

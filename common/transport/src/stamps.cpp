@@ -31,15 +31,15 @@ std::size_t stamp_count(const thermovis::PipelineStamps& stamps) {
 
 bool append_stamp(thermovis::PipelineStamps& stamps, thermovis::Stage stage, std::int64_t start_ns,
                   std::int64_t end_ns) {
-  const std::size_t index = stamp_count(stamps);
-  if (index >= stamps.stamps().size() || end_ns < start_ns) return false;
-  const std::int64_t duration_us = (end_ns - start_ns) / 1000;
-  auto& stamp = stamps.stamps()[index];
+  const std::size_t count = stamp_count(stamps);
+  const bool free = count < stamps.stamps().size();
+  auto& stamp = stamps.stamps()[free ? count : stamps.stamps().size() - 1];
+  const std::int64_t duration_us = std::max<std::int64_t>(0, end_ns - start_ns) / 1000;
   stamp.stage(stage);
   stamp.duration_us(static_cast<std::uint32_t>(
       std::min<std::int64_t>(duration_us, std::numeric_limits<std::uint32_t>::max())));
   stamp.end_ns(end_ns);
-  return true;
+  return free;
 }
 
 }  // namespace thermovis::transport

@@ -87,12 +87,20 @@ TEST(TransportStamps, AppendUntilFull) {
   EXPECT_EQ(stamps.stamps()[0].duration_us(), 2500u);
   EXPECT_EQ(stamps.stamps()[1].duration_us(), 6000u);
   EXPECT_EQ(stamps.stamps()[1].end_ns(), 9'600'000);
-  EXPECT_FALSE(tt::append_stamp(stamps, thermovis::STAGE_DETECT, 10, 5));  // ends before start
-  for (std::size_t i = 2; i < thermovis::MAX_STAGE_STAMPS; ++i) {
+  EXPECT_TRUE(tt::append_stamp(stamps, thermovis::STAGE_DETECT, 10'000'000, 9'700'000));
+  EXPECT_EQ(stamps.stamps()[2].duration_us(), 0u);  // ended before it started: no duration
+  EXPECT_EQ(stamps.stamps()[2].end_ns(), 9'700'000);
+  for (std::size_t i = 3; i < thermovis::MAX_STAGE_STAMPS; ++i) {
     EXPECT_TRUE(tt::append_stamp(stamps, thermovis::STAGE_DETECT, 0, 1000));
   }
-  EXPECT_FALSE(tt::append_stamp(stamps, thermovis::STAGE_RANGE, 0, 1000));
+  // Full: the first entries stay, the last slot takes the newest stage.
+  EXPECT_FALSE(tt::append_stamp(stamps, thermovis::STAGE_RANGE, 30'000'000, 32'000'000));
   EXPECT_EQ(tt::stamp_count(stamps), thermovis::MAX_STAGE_STAMPS);
+  EXPECT_EQ(stamps.stamps()[0].stage(), thermovis::STAGE_BRIDGE);
+  EXPECT_EQ(stamps.stamps().back().stage(), thermovis::STAGE_RANGE);
+  EXPECT_EQ(stamps.stamps().back().end_ns(), 32'000'000);
+  EXPECT_EQ(stamps.stamps().back().duration_us(), 2000u);
+  EXPECT_DOUBLE_EQ(tt::latency_ms(stamps, 1'000'000), 31.0);
 }
 
 TEST(TransportStamps, LatencyRunsFromCaptureToTheLatestStageEnd) {

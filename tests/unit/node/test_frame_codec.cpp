@@ -61,23 +61,6 @@ TEST(FrameCodec, ImpossibleHeadersAreNamed) {
   EXPECT_THROW(tn::view(*frame, tn::Eye::left), tn::FrameError);
 }
 
-TEST(Stamps, AppendKeepsOrderAndNeverOverflows) {
-  thermovis::PipelineStamps stamps;
-  for (int i = 0; i < 12; ++i) {
-    tn::append_stamp(stamps, static_cast<thermovis::Stage>(i % 5 + 1), 1000 * i,
-                     1000 * i + 1000 * (i + 1));
-  }
-  // Every slot used, the first ones in order, the last slot holding the newest stage.
-  for (const auto& stamp : stamps.stamps()) EXPECT_NE(stamp.stage(), thermovis::STAGE_NONE);
-  EXPECT_EQ(stamps.stamps()[0].stage(), thermovis::Stage{1});
-  EXPECT_EQ(stamps.stamps()[0].duration_us(), 1u);
-  EXPECT_EQ(stamps.stamps()[0].end_ns(), 1000);
-  EXPECT_EQ(stamps.stamps()[1].end_ns(), 3000);
-  EXPECT_EQ(stamps.stamps().back().stage(), thermovis::Stage{11 % 5 + 1});
-  EXPECT_EQ(stamps.stamps().back().end_ns(), 11000 + 12000);
-  EXPECT_EQ(stamps.stamps().back().duration_us(), 12u);
-}
-
 TEST(Boxes, RoundOutwardsAndRejectNonFiniteFields) {
   thermovis::Box2D box;
   box.x(10.5f);

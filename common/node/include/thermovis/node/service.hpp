@@ -44,9 +44,4 @@ int run_service(const CommonOptions& options, const std::function<void()>& body)
 // A DEADLINE period given in milliseconds on a command line.
 std::chrono::nanoseconds deadline_from_ms(double milliseconds);
 
-// Fills the first unused stamp (stage == STAGE_NONE) with this stage's processing time and end;
-// a full list keeps its first entries and the last slot takes the newest stage, so the end of
-// the pipeline is never lost.
-void append_stamp(PipelineStamps& stamps, Stage stage, std::int64_t start_ns, std::int64_t end_ns);
-
 }  // namespace thermovis::node
