@@ -1,5 +1,5 @@
 // thermovis run: the whole pipeline on the simulated rig, one line per range with its truth and
-// error, and the latency summary at the end.
+// error, and the latency summary at the end. --view adds the live display (thermovis-view).
 #include <chrono>
 #include <iostream>
 #include <memory>
@@ -8,6 +8,7 @@
 #include "command.hpp"
 #include "pipeline_session.hpp"
 #include "thermovis/node/service.hpp"
+#include "thermovis/process/process_group.hpp"
 
 namespace {
 
@@ -17,7 +18,32 @@ struct Options {
   thermovis::cli::SessionOptions session;
   double seconds = 10.0;
   bool json = false;
+  bool view = false;
+  int view_port = 8090;
 };
+
+// thermovis-view beside the pipeline, in a process group of its own (restarted if it exits), so
+// the pipeline's manifest stays the same with or without a display. It reads frames, so it is
+// stopped before the pipeline (a reader must be gone before the writers of the frames it holds).
+std::unique_ptr<thermovis::process::ProcessGroup> start_viewer(const Options& opt) {
+  const auto vars = thermovis::supervisor::default_vars(
+      opt.session.domain,
+      opt.session.profile.empty() ? thermovis::transport::kHostProfile : opt.session.profile, "");
+  thermovis::process::ServiceSpec spec;
+  spec.name = "view";
+  spec.command = {vars.at("bin") + "/thermovis-view",
+                  "--domain",
+                  vars.at("domain"),
+                  "--profile",
+                  vars.at("profile"),
+                  "--port",
+                  std::to_string(opt.view_port)};
+  thermovis::process::Manifest manifest{"view", {spec}};
+  auto group = std::make_unique<thermovis::process::ProcessGroup>(
+      manifest, thermovis::process::ProcessGroupOptions{{}, opt.session.log_dir});
+  group->start_all();
+  return group;
+}
 
 int run_pipeline(Options& opt) {
   thermovis::node::install_stop_handlers();
@@ -26,6 +52,13 @@ int run_pipeline(Options& opt) {
   if (!opt.json) {
     std::cout << "thermovis run: pipeline started on DDS domain " << opt.session.domain
               << ", logs in " << opt.session.log_dir << " (Ctrl-C stops)" << std::endl;
+  }
+  std::unique_ptr<thermovis::process::ProcessGroup> viewer;
+  if (opt.view) {
+    viewer = start_viewer(opt);
+    // On stderr with --json, so that stdout stays JSON lines.
+    (opt.json ? std::cerr : std::cout)
+        << "thermovis run: live display at http://127.0.0.1:" << opt.view_port << "/" << std::endl;
   }
   const auto start = std::chrono::steady_clock::now();
   while (!thermovis::node::stop_requested()) {
@@ -37,8 +70,10 @@ int run_pipeline(Options& opt) {
     if (opt.seconds > 0 &&
         std::chrono::steady_clock::now() - start > std::chrono::duration<double>(opt.seconds))
       break;
+    if (viewer) viewer->poll();
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
+  if (viewer) viewer->stop_all();
   session.stop();
   const auto latency = session.latency();
   const auto errors = session.errors();
@@ -61,6 +96,11 @@ THERMOVIS_COMMAND("run", "the whole pipeline on the simulated rig: live ranges, 
                         ->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
                     app.add_flag("--json", opt->json,
                                  "ranges as JSON lines, the summary as the last line");
+                    app.add_flag("--view", opt->view,
+                                 "also start the live display (thermovis-view) and print its URL");
+                    app.add_option("--view-port", opt->view_port, "HTTP port of the display")
+                        ->capture_default_str()
+                        ->check(CLI::Range(1, 65535));
                     return [opt] { return run_pipeline(*opt); };
                   });
 

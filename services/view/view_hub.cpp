@@ -95,25 +95,28 @@ void ViewHub::add_display_samples(const std::vector<DisplaySample>& samples) {
       return std::llabs(c.capture_time_ns - s.capture_time_ns) < 100'000;
     });
     if (it == composed_.rend() || s.shown_ns < s.capture_time_ns) continue;
-    measured_.push_back({(s.shown_ns - s.capture_time_ns) / 1e6,
-                         (it->range_ns - it->capture_time_ns) / 1e6,
-                         (s.shown_ns - it->range_ns) / 1e6});
+    measured_.push_back({static_cast<double>(s.shown_ns - s.capture_time_ns) / 1e6,
+                         static_cast<double>(it->range_ns - it->capture_time_ns) / 1e6,
+                         static_cast<double>(it->encoded_ns - it->range_ns) / 1e6,
+                         static_cast<double>(s.shown_ns - it->encoded_ns) / 1e6});
     while (measured_.size() > kMaxMeasured) measured_.pop_front();
   }
 }
 
 std::string ViewHub::display_latency_json() const {
   std::lock_guard lock(mutex_);
-  std::vector<double> total, pipeline, viewer;
+  std::vector<double> total, pipeline, viewer, browser;
   for (const Measured& m : measured_) {
     total.push_back(m.capture_to_shown_ms);
     pipeline.push_back(m.capture_to_range_ms);
-    viewer.push_back(m.range_to_shown_ms);
+    viewer.push_back(m.range_to_encoded_ms);
+    browser.push_back(m.encoded_to_shown_ms);
   }
   return nlohmann::json{{"frames", measured_.size()},
                         {"capture_to_shown", stats(total)},
                         {"capture_to_range", stats(pipeline)},
-                        {"range_to_shown", stats(viewer)}}
+                        {"range_to_encoded", stats(viewer)},
+                        {"encoded_to_shown", stats(browser)}}
       .dump();
 }
 

@@ -56,8 +56,9 @@ class ViewHub {
   std::string targets_json() const;
   std::string status_json() const;
   void add_display_samples(const std::vector<DisplaySample>& samples);
-  // p50/p95/max of capture->shown, capture->range (the pipeline) and range->shown (viewer,
-  // HTTP and browser) over the samples of the last `window` reports, as JSON.
+  // p50/p95/max of capture->shown and its parts: capture->range (the pipeline), range->encoded
+  // (the viewer: waiting for its composition slot, composing, encoding) and encoded->shown (HTTP
+  // and the browser), over the last kMaxMeasured frames shown, as JSON.
   std::string display_latency_json() const;
 
   void stop();  // wakes every waiter; wait_frame returns null from then on
@@ -76,7 +77,7 @@ class ViewHub {
   };
   std::deque<Composed> composed_;  // the last few hundred compositions
   struct Measured {
-    double capture_to_shown_ms, capture_to_range_ms, range_to_shown_ms;
+    double capture_to_shown_ms, capture_to_range_ms, range_to_encoded_ms, encoded_to_shown_ms;
   };
   std::deque<Measured> measured_;  // the last kMaxMeasured frames shown
   static constexpr std::size_t kMaxComposed = 512;

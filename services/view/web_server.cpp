@@ -47,20 +47,25 @@ WebServer::WebServer(ViewHub& hub, const std::string& host, int port)
     response.set_header("Cache-Control", "no-store");
     response.set_content_provider(
         std::string("multipart/x-mixed-replace; boundary=") + kBoundary,
-        [this, view = *view, last = std::uint64_t{0}](std::size_t,
+        [this, view = *view, last = std::uint64_t{0}](std::size_t offset,
                                                       httplib::DataSink& sink) mutable {
           // Called again as long as it returns true: waits (here, on an HTTP thread) for a newer
-          // frame than the last one sent, then sends only the newest.
+          // frame than the last one sent, then sends only the newest. Each part is followed at
+          // once by the next boundary: a browser shows a part only when it sees the boundary
+          // that ends it, which would otherwise come with the next frame, one frame late.
+          const std::string boundary = std::string("--") + kBoundary + "\r\n";
+          if (offset == 0 && !sink.write(boundary.data(), boundary.size())) return false;
           const auto frame = hub_.wait_frame(view, last, std::chrono::milliseconds(1000));
           if (hub_.stopped()) return false;
           if (!frame) return sink.is_writable();
           last = frame->number;
-          const std::string head = std::string("--") + kBoundary +
-                                   "\r\nContent-Type: image/jpeg\r\nContent-Length: " +
-                                   std::to_string(frame->jpeg.size()) +
-                                   "\r\nX-Frame-Seq: " + std::to_string(frame->seq) + "\r\n\r\n";
+          const std::string head =
+              "Content-Type: image/jpeg\r\nContent-Length: " + std::to_string(frame->jpeg.size()) +
+              "\r\nX-Frame-Seq: " + std::to_string(frame->seq) + "\r\n\r\n";
+          const std::string tail = "\r\n" + boundary;
           return sink.write(head.data(), head.size()) &&
-                 sink.write(frame->jpeg.data(), frame->jpeg.size()) && sink.write("\r\n", 2);
+                 sink.write(frame->jpeg.data(), frame->jpeg.size()) &&
+                 sink.write(tail.data(), tail.size());
         });
   });
 
