@@ -83,6 +83,7 @@ TEST(Faults, EveryServiceKilledOrStoppedComesBackAndRangesResume) {
                                     dir / "supervisor.log");
   ASSERT_TRUE(watcher.wait_for_results(20, Clock::now() + 180s)) << supervisor.log();
 
+  int collateral = 0;  // restarts of a service other than the one killed
   for (const std::string& service : tv::test::pipeline_services()) {
     SCOPED_TRACE(service);
     const auto before = tv::test::service_pids(domain);
@@ -110,6 +111,13 @@ TEST(Faults, EveryServiceKilledOrStoppedComesBackAndRangesResume) {
       if (name == service) {
         EXPECT_GT(pid, 0);
         EXPECT_NE(pid, victim) << "not restarted";
+      } else if (service == "bridge" && name == "rectify-fuse" && pid != before.at(name)) {
+        // Known Fast DDS 2.9 limit (README, "Faults"): a writer killed while it held its
+        // reader's data-sharing notification mutex (not robust) wedges it; the reader and the
+        // new writer both time out on it and the supervisor restarts them.
+        ++collateral;
+        std::cout << "rectify-fuse restarted with the killed bridge" << std::endl;
+        RecordProperty("rectify_fuse_restarted_with_bridge", 1);
       } else {
         EXPECT_EQ(pid, before.at(name)) << name << " did not keep running";
       }
@@ -158,7 +166,9 @@ TEST(Faults, EveryServiceKilledOrStoppedComesBackAndRangesResume) {
   EXPECT_EQ(new_bridge.wait(30s), 0) << new_bridge.log();
   const auto summary = tv::test::last_json_line(supervisor.log());
   ASSERT_FALSE(summary.is_null()) << supervisor.log();
-  EXPECT_EQ(summary["restarts"].get<int>(), 5) << "one restart per killed service, none else";
+  // One restart per killed service; a wedged reader also restarts the new bridge once.
+  EXPECT_GE(summary["restarts"].get<int>(), 5);
+  EXPECT_LE(summary["restarts"].get<int>(), 5 + 2 * collateral) << "restarts nobody caused";
   remove_segments_of_dead_processes();
   if (!HasFailure()) std::filesystem::remove_all(dir);  // else the logs tell why
 }
