@@ -188,10 +188,15 @@ void check_stamps(const PipelineStamps& stamps, std::int64_t capture_ns, const s
       throw FrameError(entry + ": stage " + std::to_string(stamp.stage()) + " after stage " +
                        std::to_string(previous_stage) + " (stamps out of order)");
     }
-    if (stamp.end_ns() < previous_end_ns - kStampSkewNs) {
+    // The difference of two arbitrary stamps may not fit an int64: taken as unsigned, which is
+    // exact when end_ns < previous_end_ns.
+    const std::uint64_t early_ns = stamp.end_ns() < previous_end_ns
+                                       ? static_cast<std::uint64_t>(previous_end_ns) -
+                                             static_cast<std::uint64_t>(stamp.end_ns())
+                                       : 0;
+    if (early_ns > static_cast<std::uint64_t>(kStampSkewNs)) {
       throw FrameError(entry + ": stage " + std::to_string(stamp.stage()) + " ends " +
-                       std::to_string((previous_end_ns - stamp.end_ns()) / 1000000) +
-                       " ms before " +
+                       std::to_string(early_ns / 1000000) + " ms before " +
                        (previous_stage == STAGE_NONE ? std::string("the capture")
                                                      : "stage " + std::to_string(previous_stage)) +
                        " (stamps out of order)");
