@@ -13,7 +13,9 @@
 #   lab.sh ip HOST                           HOST's address
 #   lab.sh link HOST down|up                 cut / restore HOST's cable (switch side, so HOST
 #                                            keeps its addresses and routes, as with a real cut)
-#   lab.sh shape HOST [--rate 1gbit] [--delay 1ms] [--loss 0.1%]   tc netem on HOST's egress
+#   lab.sh shape HOST [--rate 1gbit] [--delay 1ms] [--loss 0.1%]
+#                                            limit HOST's egress (tc: tbf for a rate alone,
+#                                            netem for delay and loss)
 #   lab.sh unshape HOST
 #   lab.sh status                            hosts, addresses, link states
 #   lab.sh gc                                remove labs left by test processes that died
@@ -185,13 +187,21 @@ case "$command" in
   shape)
     host="${args[1]:-}"
     require_host "$host"
-    netem=()
-    [[ -n "$delay" ]] && netem+=(delay "$delay")
-    [[ -n "$loss" ]] && netem+=(loss "$loss")
-    [[ -n "$rate" ]] && netem+=(rate "$rate")
-    ((${#netem[@]})) || die "shape: give --rate, --delay and/or --loss"
-    ip netns exec "$(host_ns "$host")" tc qdisc replace dev eth0 root netem "${netem[@]}" \
-      limit 100000
+    [[ -n "$rate$delay$loss" ]] || die "shape: give --rate, --delay and/or --loss"
+    if [[ -z "$delay$loss" ]]; then
+      # Rate only: a token bucket (tbf), present in kernels without sch_netem. Queue of up to
+      # 100 ms at that rate: a real switch port buffers, it does not drop a burst at once.
+      ip netns exec "$(host_ns "$host")" tc qdisc replace dev eth0 root tbf rate "$rate" \
+        burst 1mb latency 100ms ||
+        die "shape: tc tbf failed (rate like 1gbit, 100mbit)"
+    else
+      netem=()
+      [[ -n "$delay" ]] && netem+=(delay "$delay")
+      [[ -n "$loss" ]] && netem+=(loss "$loss")
+      [[ -n "$rate" ]] && netem+=(rate "$rate")
+      ip netns exec "$(host_ns "$host")" tc qdisc replace dev eth0 root netem "${netem[@]}" \
+        limit 100000 || die "shape: tc netem failed (is the kernel module sch_netem there?)"
+    fi
     ;;
   unshape)
     host="${args[1]:-}"

@@ -8,6 +8,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <map>
@@ -37,6 +38,8 @@ class Lab {
     for (const auto& h : hosts) list += (list.empty() ? "" : ",") + h;
     std::vector<std::string> args{"--name", name, "up", "--hosts", list};
     if (!multicast) args.push_back("--no-multicast");
+    // Measurement knob: the links' MTU (jumbo frames: 9000).
+    if (const char* mtu = std::getenv("THERMOVIS_LAB_MTU")) args.insert(args.end(), {"--mtu", mtu});
     std::string log;
     if (run_script(dir, args, "up", &log) != 0) {
       run_script(dir, {"--name", name, "down"}, "down");
@@ -75,6 +78,15 @@ class Lab {
     std::string out;
     if (run_script(dir_, {"--name", name_, "link", host, up ? "up" : "down"}, "link", &out) != 0)
       throw std::runtime_error("lab: link " + host + ": " + out);
+  }
+
+  // tc netem on `host`'s link (lab.sh shape: --rate 1gbit, --delay 1ms, --loss 0.1%).
+  void shape(const std::string& host, const std::vector<std::string>& netem) const {
+    std::vector<std::string> args{"--name", name_, "shape", host};
+    args.insert(args.end(), netem.begin(), netem.end());
+    std::string out;
+    if (run_script(dir_, args, "shape", &out) != 0)
+      throw std::runtime_error("lab: shape " + host + ": " + out);
   }
 
   // `argv` run on `host` (same pid as the program: signals reach it directly).

@@ -51,12 +51,13 @@ std::filesystem::path shipped_profile_file(const std::string& profile) {
   static const std::map<std::string, std::string> files = {{kHostProfile, "host.xml"},
                                                            {kLoopbackProfile, "loopback.xml"},
                                                            {kUdpProfile, "udp.xml"},
+                                                           {kUdpPacedProfile, "udp.xml"},
                                                            {kDiscoveryProfile, "udp.xml"}};
   const auto it = files.find(profile);
   if (it == files.end()) {
     throw std::invalid_argument("unknown DDS participant profile '" + profile +
                                 "' (shipped: thermovis_host, thermovis_loopback, thermovis_udp, "
-                                "thermovis_discovery)");
+                                "thermovis_udp_paced, thermovis_discovery)");
   }
   return profile_dir() / it->second;
 }

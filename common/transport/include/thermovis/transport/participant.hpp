@@ -24,6 +24,7 @@ inline constexpr const char* kLoopbackProfile = "thermovis_loopback";  // loopba
 // Across hosts (udp.xml): UDPv4 with large-sample settings between machines, shared memory within
 // one; simple (multicast) discovery, or a discovery server named by $ROS_DISCOVERY_SERVER.
 inline constexpr const char* kUdpProfile = "thermovis_udp";
+inline constexpr const char* kUdpPacedProfile = "thermovis_udp_paced";  // frames flow-controlled
 inline constexpr const char* kDiscoveryProfile = "thermovis_discovery";
 
 struct ParticipantConfig {
