@@ -23,7 +23,9 @@ struct SupervisorConfig {
   std::filesystem::path log_dir;            // service logs
   double latency_deadline_ms = 20.0;        // capture-to-output budget of one frame
   double hung_after_s = 5.0;                // no health for this long (once seen): restart
-  double startup_grace_s = 20.0;            // a service that never reported is given this long
+  // A new process that never reported is given this long: the simulated bridge renders its
+  // --prerender captures before its first health (over 20 s for 100 on a loaded machine).
+  double startup_grace_s = 60.0;
 };
 
 struct StageLatency {
