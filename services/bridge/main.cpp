@@ -56,8 +56,7 @@ int main(int argc, char** argv) {
   config.deadline = std::chrono::nanoseconds(static_cast<std::int64_t>(deadline_ms * 1e6));
 
   return node::run_service(common, [&] {
-    const auto rig =
-        runtime::load_rig(common.rig.empty() ? runtime::default_rig_path() : common.rig);
+    const auto rig = runtime::load_rig_or_default(common.rig);
     auto participant = node::make_participant(common);
     bridge::BridgeNode bridge(*participant, bridge::make_source(source, rig), config,
                               common.service);

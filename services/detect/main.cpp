@@ -36,8 +36,7 @@ int main(int argc, char** argv) {
   config.debug_delay = std::chrono::milliseconds(debug_delay_ms);
 
   return node::run_service(common, [&] {
-    const auto rig =
-        runtime::load_rig(common.rig.empty() ? runtime::default_rig_path() : common.rig);
+    const auto rig = runtime::load_rig_or_default(common.rig);
     auto participant = node::make_participant(common);
     detect_service::DetectNode detector(*participant, rig, config, common.service);
     detector.run();

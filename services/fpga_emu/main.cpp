@@ -68,8 +68,7 @@ int main(int argc, char** argv) {
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
   try {
-    const auto rig = runtime::load_rig(rig_path.empty() ? runtime::default_rig_path()
-                                                        : std::filesystem::path(rig_path));
+    const auto rig = runtime::load_rig_or_default(rig_path);
     auto frame_source = bridge::make_source(source, rig);
     fpga::RingWriter ring(ring_path,
                           fpga::stereo_rig_geometry(frame_source->visible_size(),

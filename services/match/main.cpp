@@ -39,8 +39,7 @@ int main(int argc, char** argv) {
   return node::run_service(common, [&] {
     config.match.method = match::parse_method(method);
     config.band = match_service::parse_band(band);
-    const auto rig =
-        runtime::load_rig(common.rig.empty() ? runtime::default_rig_path() : common.rig);
+    const auto rig = runtime::load_rig_or_default(common.rig);
     auto participant = node::make_participant(common);
     match_service::MatchNode matcher(*participant, rig, config, common.service);
     matcher.run();

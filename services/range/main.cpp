@@ -22,8 +22,7 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
 
   return node::run_service(common, [&] {
-    const auto rig =
-        runtime::load_rig(common.rig.empty() ? runtime::default_rig_path() : common.rig);
+    const auto rig = runtime::load_rig_or_default(common.rig);
     auto participant = node::make_participant(common);
     range_service::RangeNode ranger(*participant, rig, config, common.service);
     ranger.run();

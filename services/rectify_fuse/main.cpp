@@ -41,8 +41,7 @@ int main(int argc, char** argv) {
     config.fuse_right_eye = fused_eyes == "both";
     config.parallel_bands = !sequential;
     config.deadline = std::chrono::nanoseconds(static_cast<std::int64_t>(deadline_ms * 1e6));
-    const auto rig =
-        runtime::load_rig(common.rig.empty() ? runtime::default_rig_path() : common.rig);
+    const auto rig = runtime::load_rig_or_default(common.rig);
     auto participant = node::make_participant(common);
     rectify_fuse::RectifyFuseNode node(*participant, rig, config, common.service);
     std::cerr << "thermovis-rectify-fuse: grid " << node.grid_size().width << "x"

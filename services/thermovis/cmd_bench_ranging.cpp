@@ -91,8 +91,7 @@ int run_bench_ranging(const Options& opt) {
   } else {
     modes = {rg::parse_mode(opt.mode)};
   }
-  const auto rig = thermovis::runtime::load_rig(
-      opt.rig.empty() ? thermovis::runtime::default_rig_path() : std::filesystem::path(opt.rig));
+  const auto rig = thermovis::runtime::load_rig_or_default(opt.rig);
   const sim::Scene base =
       thermovis::runtime::load_scene(thermovis::runtime::shipped_scene_path("paper"));
   const rg::StereoRanger ranger(rig);

@@ -122,8 +122,7 @@ int run_range(const Options& opt) {
     }
     requests = read_boxes(boxes_path);
   }
-  const auto rig = thermovis::runtime::load_rig(
-      opt.rig.empty() ? thermovis::runtime::default_rig_path() : fs::path(opt.rig));
+  const auto rig = thermovis::runtime::load_rig_or_default(opt.rig);
   rg::RawFrames raw;
   raw.visible_left = read_image(dir / "visible_left.png", cv::IMREAD_COLOR);
   raw.visible_right = read_image(dir / "visible_right.png", cv::IMREAD_COLOR);

@@ -291,8 +291,7 @@ int run_rectify(const Options& opt) {
         "--onto-visible needs --model taylor (the elliptical model "
         "corrects one camera's distortion only)");
   }
-  const cam::Rig rig = thermovis::runtime::load_rig(
-      opt.rig.empty() ? thermovis::runtime::default_rig_path() : std::filesystem::path(opt.rig));
+  const cam::Rig rig = thermovis::runtime::load_rig_or_default(opt.rig);
 
   std::vector<std::string> names;
   std::vector<std::pair<std::string, std::string>> files;  // input, output

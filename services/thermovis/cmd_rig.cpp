@@ -17,8 +17,7 @@ struct Options {
 };
 
 int run_rig_info(const Options& opt) {
-  const auto rig = thermovis::runtime::load_rig(
-      opt.rig.empty() ? thermovis::runtime::default_rig_path() : std::filesystem::path(opt.rig));
+  const auto rig = thermovis::runtime::load_rig_or_default(opt.rig);
   nlohmann::json out{
       {"rig", rig.name}, {"reference", rig.reference}, {"cameras", nlohmann::json::array()}};
   for (const auto& cam : rig.cameras) {

@@ -68,8 +68,7 @@ int run_scene_render(const Options& opt) {
   if (opt.frames < 1) throw std::invalid_argument("--frames must be at least 1");
   const fs::path scene_path = resolve_scene(opt.scene);
   auto scene = thermovis::runtime::load_scene(scene_path);
-  auto rig = thermovis::runtime::load_rig(opt.rig.empty() ? thermovis::runtime::default_rig_path()
-                                                          : fs::path(opt.rig));
+  auto rig = thermovis::runtime::load_rig_or_default(opt.rig);
   thermovis::sim::RenderOptions render_options;
   render_options.temporal_noise = !opt.no_noise;
   render_options.fixed_pattern = !opt.no_noise;

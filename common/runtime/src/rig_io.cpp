@@ -317,4 +317,8 @@ std::filesystem::path default_rig_path() {
   return shipped_file("rigs/paper.yaml");
 }
 
+camera::Rig load_rig_or_default(const std::filesystem::path& path) {
+  return load_rig(path.empty() ? default_rig_path() : path);
+}
+
 }  // namespace thermovis::runtime

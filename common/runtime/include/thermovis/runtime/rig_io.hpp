@@ -40,4 +40,7 @@ std::filesystem::path shipped_file(const std::string& relative);
 // The default rig: $THERMOVIS_RIG, else shipped_file("rigs/paper.yaml").
 std::filesystem::path default_rig_path();
 
+// The rig a user named with --rig, or the default rig when none was named (empty path).
+camera::Rig load_rig_or_default(const std::filesystem::path& path);
+
 }  // namespace thermovis::runtime
