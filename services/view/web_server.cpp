@@ -34,6 +34,18 @@ WebServer::WebServer(ViewHub& hub, const std::string& host, int port)
     : hub_(hub), server_(std::make_unique<httplib::Server>()) {
   // Each stream client holds one thread for as long as it watches; the JSON polls need a few.
   server_->new_task_queue = [] { return new httplib::ThreadPool(16); };
+  // No Nagle delay: the end of a part (and its closing boundary, which lets the browser show
+  // it) would otherwise wait for the client's delayed ACK, up to 40 ms.
+  server_->set_tcp_nodelay(true);
+  // A small send buffer (inherited by accepted sockets): a client that reads slower than frames
+  // come has at most about one frame queued in the kernel, so it always gets a recent frame
+  // (the stream waits for the write, then sends the newest) instead of a growing backlog.
+  server_->set_socket_options([](socket_t sock) {
+    int yes = 1;
+    ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+    int bytes = 128 * 1024;
+    ::setsockopt(sock, SOL_SOCKET, SO_SNDBUF, &bytes, sizeof bytes);
+  });
 
   server_->Get("/", [](const httplib::Request&, httplib::Response& response) {
     response.set_content(kPageHtml, "text/html; charset=utf-8");
@@ -62,10 +74,11 @@ WebServer::WebServer(ViewHub& hub, const std::string& host, int port)
           const std::string head =
               "Content-Type: image/jpeg\r\nContent-Length: " + std::to_string(frame->jpeg.size()) +
               "\r\nX-Frame-Seq: " + std::to_string(frame->seq) + "\r\n\r\n";
-          const std::string tail = "\r\n" + boundary;
-          return sink.write(head.data(), head.size()) &&
-                 sink.write(frame->jpeg.data(), frame->jpeg.size()) &&
-                 sink.write(tail.data(), tail.size());
+          // One write per part: with TCP_NODELAY the whole part leaves at once.
+          std::string part;
+          part.reserve(head.size() + frame->jpeg.size() + boundary.size() + 2);
+          part.append(head).append(frame->jpeg).append("\r\n").append(boundary);
+          return sink.write(part.data(), part.size());
         });
   });
 
