@@ -39,39 +39,67 @@ cv::Scalar colour_of(const Target& t) {
   }
 }
 
-// Text on a dark plate so that it reads on any background; `origin` is the plate's top-left.
-void label(cv::Mat& image, const std::string& text, cv::Point origin, double scale,
-           const cv::Scalar& colour) {
+// The plate of a text at `origin` (its top-left), kept inside the image.
+cv::Rect plate_of(const cv::Mat& image, const std::string& text, cv::Point origin, double scale) {
   int baseline = 0;
   const cv::Size size = cv::getTextSize(text, kFont, scale, 1, &baseline);
   const int pad = 2;
-  origin.x = std::clamp(origin.x, 0, std::max(0, image.cols - size.width - 2 * pad));
-  origin.y = std::clamp(origin.y, 0, std::max(0, image.rows - size.height - baseline - 2 * pad));
-  cv::rectangle(image,
-                cv::Rect(origin, cv::Size(size.width + 2 * pad, size.height + baseline + 2 * pad)),
-                cv::Scalar(0, 0, 0), cv::FILLED);
-  cv::putText(image, text, origin + cv::Point(pad, pad + size.height), kFont, scale, colour, 1,
+  const cv::Size plate(size.width + 2 * pad, size.height + baseline + 2 * pad);
+  origin.x = std::clamp(origin.x, 0, std::max(0, image.cols - plate.width));
+  origin.y = std::clamp(origin.y, 0, std::max(0, image.rows - plate.height));
+  return {origin, plate};
+}
+
+// Text on a dark plate so that it reads on any background.
+void label(cv::Mat& image, const std::string& text, const cv::Rect& plate, double scale,
+           const cv::Scalar& colour) {
+  int baseline = 0;
+  const cv::Size size = cv::getTextSize(text, kFont, scale, 1, &baseline);
+  cv::rectangle(image, plate, cv::Scalar(0, 0, 0), cv::FILLED);
+  cv::putText(image, text, plate.tl() + cv::Point(2, 2 + size.height), kFont, scale, colour, 1,
               cv::LINE_AA);
+}
+
+void label(cv::Mat& image, const std::string& text, cv::Point origin, double scale,
+           const cv::Scalar& colour) {
+  label(image, text, plate_of(image, text, origin, scale), scale, colour);
 }
 
 void draw_targets(cv::Mat& image, const std::vector<Target>& targets, double scale) {
   const double text_scale = std::clamp(image.cols / 1800.0, 0.35, 0.6);
+  std::vector<cv::Rect> boxes;
+  std::vector<const Target*> drawn;
   for (const Target& t : targets) {
     if (!(std::isfinite(t.box.x) && std::isfinite(t.box.y) && std::isfinite(t.box.width) &&
           std::isfinite(t.box.height)))
       continue;
-    const cv::Rect box(cv::Point(static_cast<int>(std::floor(t.box.x * scale)),
+    boxes.emplace_back(cv::Point(static_cast<int>(std::floor(t.box.x * scale)),
                                  static_cast<int>(std::floor(t.box.y * scale))),
                        cv::Point(static_cast<int>(std::ceil((t.box.x + t.box.width) * scale)),
                                  static_cast<int>(std::ceil((t.box.y + t.box.height) * scale))));
-    const cv::Scalar colour = colour_of(t);
-    cv::rectangle(image, box, colour, 2, cv::LINE_AA);
-    int baseline = 0;
-    const int text_height = cv::getTextSize("0", kFont, text_scale, 1, &baseline).height;
-    // Above the box where there is room, else below it.
-    const int above = box.y - text_height - baseline - 6;
-    label(image, target_caption(t), {box.x, above >= 0 ? above : box.y + box.height + 2},
-          text_scale, colour);
+    drawn.push_back(&t);
+    cv::rectangle(image, boxes.back(), colour_of(t), 2, cv::LINE_AA);
+  }
+  // Captions after all boxes, each where it overlaps no caption placed before: above its box,
+  // else below it, else stacked further up (distant people stand close together in the image).
+  std::vector<cv::Rect> placed;
+  for (std::size_t i = 0; i < drawn.size(); ++i) {
+    const cv::Rect& box = boxes[i];
+    const std::string text = target_caption(*drawn[i]);
+    const int height = plate_of(image, text, {0, 0}, text_scale).height;
+    std::vector<cv::Point> candidates{{box.x, box.y - height - 2}, {box.x, box.y + box.height + 2}};
+    for (int k = 2; k < 8; ++k) candidates.emplace_back(box.x, box.y - k * (height + 1) - 2);
+    cv::Rect plate = plate_of(image, text, candidates.front(), text_scale);
+    for (const cv::Point& c : candidates) {
+      const cv::Rect p = plate_of(image, text, c, text_scale);
+      if (std::none_of(placed.begin(), placed.end(),
+                       [&](const cv::Rect& q) { return (p & q).area() > 0; })) {
+        plate = p;
+        break;
+      }
+    }
+    placed.push_back(plate);
+    label(image, text, plate, text_scale, colour_of(*drawn[i]));
   }
 }
 
@@ -146,16 +174,18 @@ const char* band_name(std::uint32_t band) {
 
 std::string target_caption(const Target& t) {
   char text[128];
+  // People are what the display is mostly about: their class goes without saying.
   const std::string name =
-      (t.label.empty() ? std::string("target") : t.label) + " #" + std::to_string(t.id);
+      (t.label.empty() || t.label == "person" ? std::string() : t.label + " ") + "#" +
+      std::to_string(t.id);
   if (!std::isfinite(t.distance_m)) {
     std::snprintf(text, sizeof text, "%s no range", name.c_str());
   } else {
-    const char* band = t.band == kBandVisible    ? "VIS"
-                       : t.band == kBandInfrared ? "IR"
-                       : t.band == kBandFused    ? "FUS"
+    const char* band = t.band == kBandVisible    ? " VIS"
+                       : t.band == kBandInfrared ? " IR"
+                       : t.band == kBandFused    ? " FUS"
                                                  : "";
-    std::snprintf(text, sizeof text, "%s %.2f +- %.2f m %s", name.c_str(), t.distance_m, t.sigma_m,
+    std::snprintf(text, sizeof text, "%s %.2f +- %.2f m%s", name.c_str(), t.distance_m, t.sigma_m,
                   band);
   }
   return text;

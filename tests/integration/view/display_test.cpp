@@ -92,8 +92,10 @@ TEST(RangingImage, FramesEachTargetBelowTheHeaderWithItsStamp) {
   EXPECT_NEAR(grey[0], 160, 40);
   EXPECT_NEAR(grey[1], grey[0], 10);
   EXPECT_EQ(out.at<cv::Vec3b>(y0 + 250, 415), cv::Vec3b(40, 40, 40));
-  EXPECT_EQ(display::target_caption(ranged), "person #3 10.04 +- 0.03 m VIS");
-  EXPECT_EQ(display::target_caption(detected), "person #4 no range");
+  EXPECT_EQ(display::target_caption(ranged), "#3 10.04 +- 0.03 m VIS");
+  EXPECT_EQ(display::target_caption(detected), "#4 no range");
+  detected.label = "vehicle";
+  EXPECT_EQ(display::target_caption(detected), "vehicle #4 no range");
 }
 
 TEST(RangingImage, SideBySideHoldsThreeScaledPanels) {

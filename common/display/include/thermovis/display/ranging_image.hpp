@@ -67,7 +67,8 @@ cv::Mat compose_side_by_side(const cv::Mat& visible, const cv::Mat& infrared, co
                              const std::vector<Target>& targets, const Status& status,
                              double panel_scale = 0.5);
 
-// The text beside a target's box: "person #3 10.04 +- 0.03 m IR" (or "person #3 no range").
+// The text beside a target's box: "#3 10.04 +- 0.03 m IR" ("vehicle #3 ..." for classes other
+// than person; "#3 no range" without a distance).
 std::string target_caption(const Target& target);
 
 }  // namespace thermovis::display
