@@ -48,16 +48,15 @@ std::filesystem::path profile_dir() {
 }
 
 std::filesystem::path shipped_profile_file(const std::string& profile) {
-  static const std::map<std::string, std::string> files = {{kHostProfile, "host.xml"},
-                                                           {kLoopbackProfile, "loopback.xml"},
-                                                           {kUdpProfile, "udp.xml"},
-                                                           {kUdpPacedProfile, "udp.xml"},
-                                                           {kDiscoveryProfile, "udp.xml"}};
+  static const std::map<std::string, std::string> files = {
+      {kHostProfile, "host.xml"},     {kLoopbackProfile, "loopback.xml"},
+      {kUdpProfile, "udp.xml"},       {kUdpPacedProfile, "udp.xml"},
+      {kDiscoveryProfile, "udp.xml"}, {kSecureProfile, "secure.xml"}};
   const auto it = files.find(profile);
   if (it == files.end()) {
     throw std::invalid_argument("unknown DDS participant profile '" + profile +
                                 "' (shipped: thermovis_host, thermovis_loopback, thermovis_udp, "
-                                "thermovis_udp_paced, thermovis_discovery)");
+                                "thermovis_udp_paced, thermovis_discovery, thermovis_secure)");
   }
   return profile_dir() / it->second;
 }
@@ -100,6 +99,44 @@ std::string register_frame_flow_controller(dds::DomainParticipantQos& qos,
   return kName;
 }
 
+// A profile that enables the DDS Security plugins gets this participant's identity files:
+// $THERMOVIS_SECURITY_DIR/<name>.{cert,key}.pem and <name>.permissions.p7s, with the CA and the
+// governance of that folder (deploy/security/make-security.sh).
+void add_security_files(dds::DomainParticipantQos& qos, const ParticipantConfig& config) {
+  bool secure = false;
+  for (const auto& property : qos.properties().properties())
+    if (property.name() == "dds.sec.auth.plugin") secure = true;
+  if (!secure) return;
+  const char* dir_env = std::getenv("THERMOVIS_SECURITY_DIR");
+  if (dir_env == nullptr || *dir_env == '\0') {
+    throw std::runtime_error("DDS profile '" + config.profile +
+                             "' needs THERMOVIS_SECURITY_DIR (the folder written by "
+                             "deploy/security/make-security.sh)");
+  }
+  if (config.name.empty()) {
+    throw std::runtime_error("DDS profile '" + config.profile +
+                             "': the participant needs a name (its security identity)");
+  }
+  const std::filesystem::path dir = std::filesystem::absolute(dir_env);
+  auto file = [&](const std::string& leaf) {
+    const auto path = dir / leaf;
+    if (!std::filesystem::is_regular_file(path)) {
+      throw std::runtime_error("DDS Security file missing: " + path.string() + " (identity '" +
+                               config.name + "')");
+    }
+    return "file://" + path.string();
+  };
+  auto& properties = qos.properties().properties();
+  const std::string auth = "dds.sec.auth.builtin.PKI-DH.";
+  const std::string access = "dds.sec.access.builtin.Access-Permissions.";
+  properties.emplace_back(auth + "identity_ca", file("ca.cert.pem"));
+  properties.emplace_back(auth + "identity_certificate", file(config.name + ".cert.pem"));
+  properties.emplace_back(auth + "private_key", file(config.name + ".key.pem"));
+  properties.emplace_back(access + "permissions_ca", file("ca.cert.pem"));
+  properties.emplace_back(access + "governance", file("governance.p7s"));
+  properties.emplace_back(access + "permissions", file(config.name + ".permissions.p7s"));
+}
+
 }  // namespace
 
 Participant::Participant(const ParticipantConfig& config) : state_(std::make_shared<State>()) {
@@ -131,6 +168,7 @@ Participant::Participant(const ParticipantConfig& config) : state_(std::make_sha
   state_->domain_id = config.domain_id;
   state_->profile = config.profile;
   state_->frame_flow_controller = register_frame_flow_controller(qos, config.profile);
+  add_security_files(qos, config);
   state_->participant = factory->create_participant(config.domain_id, qos);
   if (state_->participant == nullptr) {
     throw std::runtime_error("cannot create DDS participant on domain " +

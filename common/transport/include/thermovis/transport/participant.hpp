@@ -26,6 +26,8 @@ inline constexpr const char* kLoopbackProfile = "thermovis_loopback";  // loopba
 inline constexpr const char* kUdpProfile = "thermovis_udp";
 inline constexpr const char* kUdpPacedProfile = "thermovis_udp_paced";  // frames flow-controlled
 inline constexpr const char* kDiscoveryProfile = "thermovis_discovery";
+// DDS Security (secure.xml): identity files from $THERMOVIS_SECURITY_DIR by participant name.
+inline constexpr const char* kSecureProfile = "thermovis_secure";
 
 struct ParticipantConfig {
   int domain_id = 0;                    // 0..232 (UDP port arithmetic of the RTPS spec)
