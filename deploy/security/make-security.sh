@@ -2,7 +2,9 @@
 # DDS Security material for thermovis (Fast DDS built-in plugins: PKI-DH authentication,
 # Access-Permissions, AES-GCM-GMAC), made with openssl into one folder:
 #
-#   make-security.sh [--out DIR (default $THERMOVIS_SECURITY_DIR, else ./thermovis-security)] [--days N] [--domains 0-232] [IDENTITY...]
+#   make-security.sh [--out DIR] [--days N] [--domains 0-232] [IDENTITY...]
+#
+# DIR: default $THERMOVIS_SECURITY_DIR, else ./thermovis-security.
 #
 #   ca.key.pem, ca.cert.pem        the CA (ECDSA P-256) that signs identities and documents
 #   governance.xml / .p7s          the domain rules, signed (S/MIME) by the CA
