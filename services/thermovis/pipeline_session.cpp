@@ -137,6 +137,9 @@ void PipelineSession::kill_service(const std::string& name) {
       throw std::invalid_argument("service '" + name + "' is not running");
     killed_ns_.push_back(transport::now_ns());
     killed_at_.push_back(std::chrono::steady_clock::now());
+    last_before_kill_.push_back(last_arrival_ == std::chrono::steady_clock::time_point{}
+                                    ? killed_at_.back()
+                                    : last_arrival_);
     outages_.push_back({name});
     ::kill(status.pid, SIGKILL);
     return;
@@ -155,10 +158,10 @@ std::vector<CheckedRange> PipelineSession::step() {
       outages_[k].recovered = true;
       outages_[k].first_fresh_ms =
           std::chrono::duration<double, std::milli>(arrival - killed_at_[k]).count();
-      // The gap users see: from the last range before it (frames in flight at the kill).
-      const auto before =
-          last_arrival_ == std::chrono::steady_clock::time_point{} ? killed_at_[k] : last_arrival_;
-      outages_[k].outage_ms = std::chrono::duration<double, std::milli>(arrival - before).count();
+      // From the last range received before the kill (a frame already past the killed stage,
+      // or an old one the restarted service found, may still arrive in between).
+      outages_[k].outage_ms =
+          std::chrono::duration<double, std::milli>(arrival - last_before_kill_[k]).count();
     }
     last_arrival_ = arrival;
     const double latency = transport::latency_ms(array.stamps(), array.capture_time_ns());

@@ -70,7 +70,7 @@ struct ServiceOutage {
   std::string service;
   bool recovered = false;       // a range of a frame captured after the kill arrived
   double first_fresh_ms = 0.0;  // kill to that range
-  double outage_ms = 0.0;       // the range before it (in flight at the kill) to that range
+  double outage_ms = 0.0;       // the last range received before the kill to that range
 };
 
 class PipelineSession {
@@ -117,7 +117,7 @@ class PipelineSession {
   std::map<int, CpuMark> cpu_marks_;  // by pid
   std::vector<ServiceOutage> outages_;
   std::vector<std::int64_t> killed_ns_;  // capture clock at each kill (transport::now_ns)
-  std::vector<std::chrono::steady_clock::time_point> killed_at_;
+  std::vector<std::chrono::steady_clock::time_point> killed_at_, last_before_kill_;
   std::chrono::steady_clock::time_point last_arrival_{};
 };
 

@@ -66,8 +66,16 @@ Outage watch_recovery(PipelineWatcher& watcher, int domain, const std::string& s
     for (std::size_t i = seen_before; i < a.size(); ++i) {
       if (a[i].capture_ns <= stopped_wall_ns) continue;
       o.first_fresh_ms = ms_between(stopped_at, a[i].at);
-      // The gap users see: from the last result before it (in-flight frames included).
-      o.outage_ms = i > 0 ? ms_between(a[i - 1].at, a[i].at) : o.first_fresh_ms;
+      // From the last result received before the stop (results of frames already past the
+      // stopped stage, or of an old frame a restarted service found, may arrive in between).
+      Clock::time_point last_before = stopped_at;
+      for (std::size_t j = seen_before; j-- > 0;) {
+        if (a[j].at <= stopped_at) {
+          last_before = a[j].at;
+          break;
+        }
+      }
+      o.outage_ms = ms_between(last_before, a[i].at);
       return o;
     }
   }
