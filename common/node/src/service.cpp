@@ -36,7 +36,10 @@ void add_common_options(CLI::App& app, CommonOptions& options) {
   app.add_option("--domain", options.domain, "DDS domain id (default $THERMOVIS_DOMAIN or 0)")
       ->check(CLI::Range(0, 232));
   app.add_option("--profile", options.profile,
-                 "DDS participant profile: thermovis_host (shared memory) or thermovis_loopback");
+                 "DDS participant profile: thermovis_host (shared memory, one host), "
+                 "thermovis_loopback (tests), thermovis_udp / thermovis_udp_paced (several "
+                 "hosts), thermovis_discovery (discovery server, needs ROS_DISCOVERY_SERVER), "
+                 "thermovis_secure (DDS Security)");
   app.add_option("--profiles-file", options.profiles_file, "DDS XML profiles file");
   app.add_option("--rig", options.rig, "rig YAML (default deploy/rigs/paper.yaml)");
   app.add_option("--threads", options.threads,
