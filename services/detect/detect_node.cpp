@@ -75,12 +75,15 @@ void DetectNode::run() {
         break;
     }
     try {
-      process(frames[newest]);
+      const DetectionArray out = detect(frames[newest]);
       if (!frames.still_valid(newest)) {
-        // The writer reused the sample while it was read: the detections may mix two frames.
+        // The writer reused the sample while it was read: the detections may mix two frames,
+        // so they are not published.
         throw node::FrameError("frame " + std::to_string(frames[newest].seq()) +
                                " was overwritten while it was processed");
       }
+      out_.write(out);
+      stats_.detections += out.detections().size();
       ++stats_.processed;
       health_.frame_processed();
     } catch (const std::exception& e) {
@@ -107,7 +110,7 @@ cv::Mat DetectNode::fused_left_for(std::uint64_t seq) {
   return {};
 }
 
-void DetectNode::process(const GridStereoFrame& infrared) {
+DetectionArray DetectNode::detect(const GridStereoFrame& infrared) {
   const std::int64_t start_ns = transport::now_ns();
   const cv::Mat left = node::view(infrared, node::Eye::left, grid_.image_size());
   if (left.type() != CV_8UC1 && left.type() != CV_16UC1) {
@@ -141,10 +144,9 @@ void DetectNode::process(const GridStereoFrame& infrared) {
     detection.box(node::to_box(d.box));
     out.detections().push_back(detection);
   }
-  stats_.detections += found.size();
   out.stamps(infrared.stamps());
   transport::append_stamp(out.stamps(), STAGE_DETECT, start_ns, transport::now_ns());
-  out_.write(out);
+  return out;
 }
 
 }  // namespace thermovis::detect_service

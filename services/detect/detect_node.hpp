@@ -48,7 +48,8 @@ class DetectNode {
   DetectStats stats() const { return stats_; }
 
  private:
-  void process(const GridStereoFrame& infrared);
+  // The detections of one frame (published by run() once the frame proved intact).
+  DetectionArray detect(const GridStereoFrame& infrared);
   cv::Mat fused_left_for(std::uint64_t seq);
 
   DetectConfig config_;
