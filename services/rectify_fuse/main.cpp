@@ -24,10 +24,11 @@ int main(int argc, char** argv) {
                  "left (the display's) | both (needed by thermovis-match --band fused)")
       ->check(CLI::IsMember({"left", "both"}))
       ->capture_default_str();
-  bool sequential = false;
-  app.add_flag("--sequential", sequential,
-               "rectify the visible pair after the infrared one on this thread (default: on a "
-               "second thread at the same time)");
+  bool parallel_bands = false;
+  app.add_flag("--parallel-bands", parallel_bands,
+               "rectify the visible pair on a second thread while the infrared pair is "
+               "rectified (for machines with a spare core; on a saturated one it delays the "
+               "infrared pair that detection waits for)");
   app.add_option("--deadline-ms", deadline_ms, "DEADLINE QoS period")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
@@ -39,7 +40,7 @@ int main(int argc, char** argv) {
     config.fusion.method = *parsed;
     if (no_enhance) config.fusion.enhance_visible.reset();
     config.fuse_right_eye = fused_eyes == "both";
-    config.parallel_bands = !sequential;
+    config.parallel_bands = parallel_bands;
     config.deadline = std::chrono::nanoseconds(static_cast<std::int64_t>(deadline_ms * 1e6));
     const auto rig = runtime::load_rig_or_default(common.rig);
     auto participant = node::make_participant(common);

@@ -135,10 +135,9 @@ void RectifyFuseNode::process(const VisibleStereoFrame& visible,
   auto out_infrared = rectified_infrared_out_.loan();
   auto out_fused = fused_out_.loan();
   // The rectified pairs first, infrared before visible: detection works on the infrared alone
-  // and starts while the visible pair is rectified; matching needs both. The visible pair is
-  // rectified on a second thread meanwhile (its remap costs more than the infrared's), so both
-  // pairs are out after the longer of the two. The fusion, which only the display and
-  // fused-band matching need, comes last.
+  // and starts while the visible pair is rectified; matching needs both. With parallel_bands
+  // the visible pair is rectified on a second thread meanwhile (its remap costs more than the
+  // infrared's). The fusion, which only the display and fused-band matching need, comes last.
   std::array<cv::Mat, 2> rect_visible, rect_infrared;
   const auto rectify_visible = [&] {
     for (const Eye eye : {Eye::left, Eye::right}) {

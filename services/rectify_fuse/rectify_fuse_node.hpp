@@ -29,8 +29,11 @@ struct RectifyFuseConfig {
       fuse::FusionMethod::fast, fuse::ColourMode::luminance, {}, enhance::VisibleContrastParams{}};
   // The display needs the left eye fused; only matching on the fused band needs the right one.
   bool fuse_right_eye = false;
-  // The visible pair is rectified on a second thread while this one rectifies the infrared.
-  bool parallel_bands = true;
+  // The visible pair rectified on a second thread while this one rectifies the infrared: both
+  // pairs out sooner when a core is free; on the 2-core reference machine, whose cores the
+  // pipeline keeps busy, it delayed the infrared pair (rectify-fuse stage p50 12-14 ms instead
+  // of 5.2) without more captures answered, so it is off by default.
+  bool parallel_bands = false;
   enhance::AgcParams agc;
   std::chrono::nanoseconds deadline{20'000'000};
 };
