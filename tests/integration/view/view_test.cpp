@@ -243,7 +243,9 @@ TEST(View, AViewerServingClientsOrKilledLeavesThePipelineRateUnchanged) {
   const Window without = measure(ranges, phase);
 
   // B: a viewer with a client pulling the stream as fast as it comes and one that connects and
-  // never reads (its socket buffers fill, the server's write to it blocks).
+  // never reads (its socket buffers fill, the server's write to it blocks). Both watch the fused
+  // view, the display's default: the visible, infrared and side-by-side views make the viewer a
+  // third reader of the rectified frames, whose pools rectify-fuse sizes for two.
   ChildProcess viewer(thermovis::test::viewer_command(domain), dir / "view.log");
   const int port = wait_for_viewer(viewer, 60s);
   ASSERT_GT(port, 0) << viewer.log();
@@ -253,7 +255,7 @@ TEST(View, AViewerServingClientsOrKilledLeavesThePipelineRateUnchanged) {
     httplib::Client client("127.0.0.1", port);
     client.set_read_timeout(5, 0);
     while (!stop) {
-      client.Get("/stream.mjpg?view=side", [&](const char*, std::size_t n) {
+      client.Get("/stream.mjpg?view=fused", [&](const char*, std::size_t n) {
         bytes += n;
         return !stop.load();
       });
