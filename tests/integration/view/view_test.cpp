@@ -12,6 +12,7 @@
 #include <cmath>
 #include <csignal>
 #include <map>
+#include <memory>
 #include <set>
 #include <thread>
 
@@ -73,18 +74,20 @@ TEST(View, BrowserShowsTheLiveRangingImageAndTheSimulatedTargets) {
                      << viewer.log() << "\nsupervisor log:\n"
                      << supervisor.log();
 
-  thermovis::test::Browser browser(dir);
-  browser.open("http://127.0.0.1:" + std::to_string(port) + "/");
+  auto browser = std::make_unique<thermovis::test::Browser>(dir);
+  browser->open("http://127.0.0.1:" + std::to_string(port) + "/");
 
   // The stream is on the page once the script has seen stamped frames appear.
-  const auto shown = [&] { return browser.run("return window.thermovis.framesShown;").get<int>(); };
+  const auto shown = [&] {
+    return browser->run("return window.thermovis.framesShown;").get<int>();
+  };
   auto until = Clock::now() + 60s;
   while (Clock::now() < until && shown() < 3) std::this_thread::sleep_for(200ms);
   ASSERT_GE(shown(), 3) << "the page showed no stream frames\n" << viewer.log();
 
   // Two screenshots of the image a second apart: different pixels, and stamps (read back from
   // the screenshots) of later captures.
-  const auto natural = browser.run(
+  const auto natural = browser->run(
       "const i = document.getElementById('stream'); return [i.naturalWidth, i.naturalHeight];");
   const cv::Size size(natural[0].get<int>(), natural[1].get<int>());
   const auto stamp_of = [&](const cv::Mat& shot) {
@@ -92,13 +95,13 @@ TEST(View, BrowserShowsTheLiveRangingImageAndTheSimulatedTargets) {
     cv::resize(shot, scaled, size, 0, 0, cv::INTER_AREA);
     return tv::display::read_stamp(scaled);
   };
-  const cv::Mat first = decode_png(browser.screenshot("#stream"));
+  const cv::Mat first = decode_png(browser->screenshot("#stream"));
   // The next screenshot once the page has shown two more frames (a loaded machine may take a
   // while).
   const int shown_before = shown();
   until = Clock::now() + 30s;
   while (Clock::now() < until && shown() < shown_before + 2) std::this_thread::sleep_for(100ms);
-  const cv::Mat second = decode_png(browser.screenshot("#stream"));
+  const cv::Mat second = decode_png(browser->screenshot("#stream"));
   ASSERT_FALSE(first.empty());
   ASSERT_EQ(first.size(), second.size());
   cv::imwrite((dir / "screenshot.png").string(), second);
@@ -124,7 +127,7 @@ TEST(View, BrowserShowsTheLiveRangingImageAndTheSimulatedTargets) {
   std::set<long> people_seen;
   until = Clock::now() + 30s;
   for (int reading = 0; reading < 8 && Clock::now() < until; ++reading) {
-    const auto table = browser.run(
+    const auto table = browser->run(
         "return Array.from(document.querySelectorAll('#targets tbody tr.target'))"
         ".map(r => [r.dataset.label, r.dataset.distanceM]);");
     for (const auto& row : table) {
@@ -180,6 +183,8 @@ TEST(View, BrowserShowsTheLiveRangingImageAndTheSimulatedTargets) {
   EXPECT_EQ(viewer.wait(30s), 0) << viewer.log();
   supervisor.signal(SIGTERM);
   EXPECT_EQ(supervisor.wait(60s), 0) << supervisor.log();
+  // The browser closed first: Chromium writes its profile until it has quit.
+  browser.reset();
   if (!HasFailure()) std::filesystem::remove_all(dir);  // else the logs stay for a look
 }
 
