@@ -20,6 +20,16 @@ transport::TopicQos raw_qos(std::chrono::nanoseconds deadline) {
   return transport::frame_topic_qos(deadline, 2, 2);
 }
 
+// Writers of grid frames: their pools hold a slot per reader that may keep one sample loaned
+// (rectified infrared: detect, match, thermovis-view, and one more DDS application). With
+// fewer slots than readers a third reader (the viewer) left no slot free and stalled this
+// service ("every pool slot is loaned or unread").
+constexpr std::int32_t kGridFrameReaders = 4;
+
+transport::TopicQos grid_qos(std::chrono::nanoseconds deadline) {
+  return transport::frame_topic_qos(deadline, 2, kGridFrameReaders);
+}
+
 std::unique_ptr<fpga::FastRemapper> remapper(const cv::Mat& map, const camera::RigCamera& camera) {
   return std::make_unique<fpga::FastRemapper>(
       fpga::FixedPointMap::from_float(map, camera.model->image_size()));
@@ -40,11 +50,10 @@ RectifyFuseNode::RectifyFuseNode(transport::Participant& participant, const came
       visible_in_(participant, transport::topics::kVisibleFrames, raw_qos(config.deadline)),
       infrared_in_(participant, transport::topics::kInfraredFrames, raw_qos(config.deadline)),
       rectified_visible_out_(participant, transport::topics::kRectifiedVisible,
-                             transport::frame_topic_qos(config.deadline)),
+                             grid_qos(config.deadline)),
       rectified_infrared_out_(participant, transport::topics::kRectifiedInfrared,
-                              transport::frame_topic_qos(config.deadline)),
-      fused_out_(participant, transport::topics::kFused,
-                 transport::frame_topic_qos(config.deadline)),
+                              grid_qos(config.deadline)),
+      fused_out_(participant, transport::topics::kFused, grid_qos(config.deadline)),
       health_(participant, service_name, [this] {
         return std::vector<transport::TopicCountersSnapshot>{
             visible_in_.counters(), infrared_in_.counters(), rectified_visible_out_.counters(),
