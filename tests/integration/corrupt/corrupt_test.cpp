@@ -30,7 +30,9 @@
 namespace {
 
 using namespace std::chrono_literals;
+using thermovis::test::box2d;
 using thermovis::test::ChildProcess;
+using thermovis::test::receive;
 namespace tv = thermovis;
 namespace topics = tv::transport::topics;
 
@@ -117,28 +119,6 @@ class Service {
   std::optional<tv::Health> last_;
   std::unique_ptr<ChildProcess> process_;
 };
-
-template <class T>
-bool receive(tv::transport::Reader<T>& reader, const std::function<bool(const T&)>& ok,
-             std::chrono::seconds timeout) {
-  const auto until = std::chrono::steady_clock::now() + timeout;
-  while (std::chrono::steady_clock::now() < until) {
-    reader.wait_for_data(100ms);
-    auto samples = reader.take();
-    for (std::size_t i = 0; i < samples.size(); ++i)
-      if (ok(samples[i])) return true;
-  }
-  return false;
-}
-
-tv::Box2D box2d(float x, float y, float width, float height) {
-  tv::Box2D box;
-  box.x(x);
-  box.y(y);
-  box.width(width);
-  box.height(height);
-  return box;
-}
 
 // Stamps of the stages a sample went through, ending at the given times (ns).
 tv::PipelineStamps stamps(std::initializer_list<std::pair<tv::Stage, std::int64_t>> stages) {

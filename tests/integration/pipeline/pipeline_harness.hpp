@@ -1,7 +1,9 @@
 #pragma once
 // What the pipeline's multi-process tests share: this test's own DDS participant (loopback
 // profile), the supervisor's command line on a private domain, and the supervisor's summary.
+#include <chrono>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -10,6 +12,7 @@
 
 #include "thermovis/test/data.hpp"
 #include "thermovis/transport/participant.hpp"
+#include "thermovis/transport/reader.hpp"
 
 namespace thermovis::test {
 
@@ -47,6 +50,30 @@ inline nlohmann::json last_json_line(const std::string& log) {
     if (!line.empty() && line.front() == '{') last = line;
   }
   return last.empty() ? nlohmann::json() : nlohmann::json::parse(last);
+}
+
+// Waits for the first sample of `reader` satisfying `ok` (which copies what it needs: frame
+// types are megabytes, not for the stack); false on timeout.
+template <class T>
+bool receive(transport::Reader<T>& reader, const std::function<bool(const T&)>& ok,
+             std::chrono::seconds timeout) {
+  const auto until = std::chrono::steady_clock::now() + timeout;
+  while (std::chrono::steady_clock::now() < until) {
+    reader.wait_for_data(std::chrono::milliseconds(100));
+    auto samples = reader.take();
+    for (std::size_t i = 0; i < samples.size(); ++i)
+      if (ok(samples[i])) return true;
+  }
+  return false;
+}
+
+inline Box2D box2d(float x, float y, float width, float height) {
+  Box2D box;
+  box.x(x);
+  box.y(y);
+  box.width(width);
+  box.height(height);
+  return box;
 }
 
 }  // namespace thermovis::test

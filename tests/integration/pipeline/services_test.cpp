@@ -34,7 +34,9 @@
 namespace {
 
 using namespace std::chrono_literals;
+using thermovis::test::box2d;
 using thermovis::test::ChildProcess;
+using thermovis::test::receive;
 namespace tv = thermovis;
 namespace topics = tv::transport::topics;
 
@@ -90,35 +92,11 @@ class Harness {
   std::vector<std::unique_ptr<ChildProcess>> processes_;
 };
 
-tv::Box2D box2d(float x, float y, float width, float height) {
-  tv::Box2D box;
-  box.x(x);
-  box.y(y);
-  box.width(width);
-  box.height(height);
-  return box;
-}
-
 bool running(const tv::Health& h) {
   return h.state() == tv::HEALTH_STARTING || h.state() == tv::HEALTH_OK;
 }
 bool waiting_for_input(const tv::Health& h) {
   return h.message().to_string().find("waiting") != std::string::npos;
-}
-
-// Waits for the first sample of `reader` satisfying `ok` (which copies what it needs: frame
-// types are megabytes, not for the stack); false on timeout.
-template <class T>
-bool receive(tv::transport::Reader<T>& reader, const std::function<bool(const T&)>& ok,
-             std::chrono::seconds timeout) {
-  const auto until = std::chrono::steady_clock::now() + timeout;
-  while (std::chrono::steady_clock::now() < until) {
-    reader.wait_for_data(100ms);
-    auto samples = reader.take();
-    for (std::size_t i = 0; i < samples.size(); ++i)
-      if (ok(samples[i])) return true;
-  }
-  return false;
 }
 
 tv::rectify::StereoGeometry pipeline_geometry() {
