@@ -34,25 +34,6 @@ inline const std::vector<std::string>& pipeline_services() {
   return names;
 }
 
-// The pid of service `name` ("bridge") running on DDS domain `domain`, or 0.
-inline pid_t service_pid(const std::string& name, int domain) {
-  const std::string path = (bin_dir() / ("thermovis-" + name)).string();
-  std::error_code ec;
-  for (const auto& entry : std::filesystem::directory_iterator("/proc", ec)) {
-    const std::string pid = entry.path().filename().string();
-    if (pid.find_first_not_of("0123456789") != std::string::npos) continue;
-    std::ifstream in(entry.path() / "cmdline");
-    std::vector<std::string> argv;
-    for (std::string arg; std::getline(in, arg, '\0');) argv.push_back(arg);
-    if (argv.size() < 3 || argv[0] != path) continue;
-    for (std::size_t i = 1; i + 1 < argv.size(); ++i) {
-      if (argv[i] == "--domain" && argv[i + 1] == std::to_string(domain))
-        return static_cast<pid_t>(std::stoi(pid));
-    }
-  }
-  return 0;
-}
-
 inline std::map<std::string, pid_t> service_pids(int domain) {
   std::map<std::string, pid_t> out;
   for (const auto& name : pipeline_services()) out[name] = service_pid(name, domain);

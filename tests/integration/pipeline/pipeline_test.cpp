@@ -38,6 +38,7 @@ using thermovis::test::ChildProcess;
 namespace tv = thermovis;
 
 using thermovis::test::private_domain;
+using thermovis::test::service_pid;
 
 // Distance of `point` from the line of sight through `direction` (infinite when behind).
 double off_axis_m(const Eigen::Vector3d& direction, const Eigen::Vector3d& point) {
@@ -184,24 +185,6 @@ double median(std::vector<double> values) {
   return values[values.size() / 2];
 }
 
-// The pid of the service `executable` running on DDS domain `domain` (from /proc), or 0.
-pid_t service_pid(const std::string& executable, int domain) {
-  const std::string path = (thermovis::test::bin_dir() / executable).string();
-  for (const auto& entry : std::filesystem::directory_iterator("/proc")) {
-    const std::string name = entry.path().filename().string();
-    if (name.find_first_not_of("0123456789") != std::string::npos) continue;
-    std::ifstream in(entry.path() / "cmdline");
-    std::vector<std::string> argv;
-    for (std::string arg; std::getline(in, arg, '\0');) argv.push_back(arg);
-    if (argv.size() < 3 || argv[0] != path) continue;
-    for (std::size_t i = 1; i + 1 < argv.size(); ++i) {
-      if (argv[i] == "--domain" && argv[i + 1] == std::to_string(domain))
-        return static_cast<pid_t>(std::stoi(name));
-    }
-  }
-  return 0;
-}
-
 TEST(Pipeline, AServiceKilledWithSigkillIsRestartedAndRangesResume) {
   const auto dir = thermovis::test::temp_dir("pipeline_kill");
   const int domain = private_domain();
@@ -228,11 +211,11 @@ TEST(Pipeline, AServiceKilledWithSigkillIsRestartedAndRangesResume) {
   ASSERT_GE(collect(30, Clock::now() + 180s), 30) << supervisor.log();
 
   // The detector dies without warning; the rest keeps running, the supervisor restarts it.
-  for (const char* service : {"thermovis-detect", "thermovis-match"}) {
+  for (const char* service : {"detect", "match"}) {
     SCOPED_TRACE(service);
     const pid_t victim = service_pid(service, domain);
     ASSERT_GT(victim, 0);
-    const pid_t bridge = service_pid("thermovis-bridge", domain);
+    const pid_t bridge = service_pid("bridge", domain);
     ::kill(victim, SIGKILL);
     const auto killed = Clock::now();
     // Results already on their way may still arrive; then a gap; then results again.
@@ -256,7 +239,7 @@ TEST(Pipeline, AServiceKilledWithSigkillIsRestartedAndRangesResume) {
     const pid_t replacement = service_pid(service, domain);
     EXPECT_GT(replacement, 0);
     EXPECT_NE(replacement, victim);
-    EXPECT_EQ(service_pid("thermovis-bridge", domain), bridge) << "the others keep running";
+    EXPECT_EQ(service_pid("bridge", domain), bridge) << "the others keep running";
   }
 
   supervisor.signal(SIGTERM);
