@@ -19,6 +19,11 @@ using Clock = std::chrono::steady_clock;
 // The health key a manifest service reports under: "bridge" -> "thermovis-bridge".
 std::string health_key(const std::string& service) { return "thermovis-" + service; }
 
+// Exits, restarts and failed starts, one line each on the supervisor's log.
+void log_event(const std::string& service, const std::string& event) {
+  std::cerr << "thermovis-supervisor: " << service << ": " << event << std::endl;
+}
+
 }  // namespace
 
 const char* stage_name(Stage stage) {
@@ -49,7 +54,7 @@ double percentile(std::vector<double> values, double p) {
 Supervisor::Supervisor(transport::Participant& participant, process::Manifest manifest,
                        SupervisorConfig config)
     : config_(std::move(config)),
-      group_(std::move(manifest), {config_.vars, config_.log_dir}),
+      group_(std::move(manifest), {config_.vars, config_.log_dir, log_event}),
       timing_in_(participant, transport::topics::kTiming, transport::event_topic_qos(64)),
       health_in_(participant, transport::topics::kHealth, transport::state_topic_qos()),
       ranges_in_(participant, transport::topics::kRanges, transport::event_topic_qos(64)) {}
@@ -142,11 +147,11 @@ void Supervisor::reset_statistics() {
   stage_ms_.clear();
   late_.clear();
   first_seq_ = last_seq_ = 0;
-  base_bad_inputs_ = base_deadline_misses_ = base_restarts_ = 0;
+  base_bad_inputs_ = base_deadline_misses_ = 0;
   const LatencySummary now = summary();
   base_bad_inputs_ = now.bad_inputs;
   base_deadline_misses_ = now.deadline_misses;
-  base_restarts_ = now.restarts;
+  for (const auto& status : group_.status()) base_restarts_[status.name] = status.restarts;
 }
 
 LatencySummary Supervisor::summary() const {
@@ -168,12 +173,16 @@ LatencySummary Supervisor::summary() const {
       s.deadline_misses += topic.requested_deadline_missed() + topic.offered_deadline_missed();
     }
   }
-  for (const auto& status : group_.status())
-    s.restarts += static_cast<std::uint64_t>(status.restarts);
+  for (const auto& status : group_.status()) {
+    const auto base = base_restarts_.find(status.name);
+    const int restarts = status.restarts - (base == base_restarts_.end() ? 0 : base->second);
+    if (restarts <= 0) continue;
+    s.restarts += static_cast<std::uint64_t>(restarts);
+    s.restarted.push_back({status.name, static_cast<std::uint64_t>(restarts), status.last_error});
+  }
   // Counters since the last reset (a restarted service starts its counters again at zero).
   s.bad_inputs -= std::min(s.bad_inputs, base_bad_inputs_);
   s.deadline_misses -= std::min(s.deadline_misses, base_deadline_misses_);
-  s.restarts -= std::min(s.restarts, base_restarts_);
   for (const auto& [stage, values] : stage_ms_) {
     s.stages.push_back({stage_name(stage), percentile(values, 50), percentile(values, 99),
                         *std::max_element(values.begin(), values.end())});
@@ -198,6 +207,9 @@ std::string summary_json(const LatencySummary& s) {
   nlohmann::json stages = nlohmann::json::object();
   for (const auto& st : s.stages)
     stages[st.stage] = {{"p50_ms", st.p50_ms}, {"p99_ms", st.p99_ms}, {"max_ms", st.max_ms}};
+  nlohmann::json restarted = nlohmann::json::object();
+  for (const auto& r : s.restarted)
+    restarted[r.service] = {{"restarts", r.restarts}, {"last_error", r.last_error}};
   return nlohmann::json{{"frames", s.frames},
                         {"p50_ms", s.p50_ms},
                         {"p99_ms", s.p99_ms},
@@ -207,6 +219,7 @@ std::string summary_json(const LatencySummary& s) {
                         {"deadline_misses", s.deadline_misses},
                         {"bad_inputs", s.bad_inputs},
                         {"restarts", s.restarts},
+                        {"restarted", restarted},
                         {"stages", stages}}
       .dump();
 }
@@ -220,6 +233,8 @@ std::string summary_text(const LatencySummary& s, double deadline_ms) {
       << " ms: " << s.over_deadline << "; dropped " << s.dropped << "; DEADLINE QoS misses "
       << s.deadline_misses << "; bad inputs " << s.bad_inputs << "; restarts " << s.restarts
       << "\n";
+  for (const auto& r : s.restarted)
+    out << "  restarted " << r.service << " " << r.restarts << "x, last: " << r.last_error << "\n";
   for (const auto& st : s.stages) {
     out << "  stage " << st.stage << ": p50 " << st.p50_ms << " ms, p99 " << st.p99_ms
         << " ms, max " << st.max_ms << " ms\n";

@@ -44,6 +44,12 @@ struct LatencySummary {
   std::uint64_t dropped =
       0;  // captures between first_seq and last_seq that never reached the output
   std::vector<StageLatency> stages;
+  struct ServiceRestarts {
+    std::string service;
+    std::uint64_t restarts = 0;  // since the last reset
+    std::string last_error;      // why it last stopped, in words
+  };
+  std::vector<ServiceRestarts> restarted;  // the services restarted since the last reset
 };
 
 // One frame that went over the latency deadline, with the stage that used the most time.
@@ -102,7 +108,8 @@ class Supervisor {
   std::uint64_t first_seq_ = 0, last_seq_ = 0;
   std::size_t stale_segments_removed_ = 0;
   // Cumulative counts at the last reset_statistics().
-  std::uint64_t base_bad_inputs_ = 0, base_deadline_misses_ = 0, base_restarts_ = 0;
+  std::uint64_t base_bad_inputs_ = 0, base_deadline_misses_ = 0;
+  std::map<std::string, int> base_restarts_;  // by manifest name
 };
 
 // The substitutions of the shipped manifest: bin (the folder of the running executable, where
@@ -112,7 +119,8 @@ std::map<std::string, std::string> default_vars(int domain, const std::string& p
                                                 const std::string& scene);
 
 // The summary as JSON (frames, p50_ms, p99_ms, max_ms, over_deadline, deadline_misses,
-// bad_inputs, restarts, stages) and as the lines a person reads.
+// bad_inputs, restarts, restarted: {service: {restarts, last_error}}, stages) and as the lines a
+// person reads.
 std::string summary_json(const LatencySummary& summary);
 std::string summary_text(const LatencySummary& summary, double deadline_ms);
 

@@ -40,7 +40,7 @@ std::unique_ptr<thermovis::process::ProcessGroup> start_viewer(const Options& op
                   std::to_string(opt.view_port)};
   thermovis::process::Manifest manifest{"view", {spec}};
   auto group = std::make_unique<thermovis::process::ProcessGroup>(
-      manifest, thermovis::process::ProcessGroupOptions{{}, opt.session.log_dir});
+      manifest, thermovis::process::ProcessGroupOptions{{}, opt.session.log_dir, {}});
   group->start_all();
   return group;
 }

@@ -10,6 +10,7 @@
 #include <cerrno>
 #include <cmath>
 #include <cstring>
+#include <sstream>
 #include <stdexcept>
 #include <thread>
 
@@ -166,6 +167,7 @@ void ProcessGroup::handle_exit(Entry& e, int wait_status) {
                                       (e.spec.restart == RestartPolicy::on_failure && failed));
   if (!restart) {
     e.status.state = failed ? ServiceState::failed : ServiceState::stopped;
+    if (!stopping_) report(e, what + (failed ? "; not restarted (policy)" : ""));
     return;
   }
   const double ran_s = Seconds(Clock::now() - e.started).count();
@@ -174,6 +176,13 @@ void ProcessGroup::handle_exit(Entry& e, int wait_status) {
       e.spec.backoff_max_s, e.spec.backoff_initial_s * std::pow(2.0, e.consecutive_failures - 1));
   e.restart_at = Clock::now() + std::chrono::duration_cast<Clock::duration>(Seconds(delay));
   e.status.state = ServiceState::backoff;
+  std::ostringstream event;
+  event << what << "; restart " << e.status.restarts + 1 << " in " << delay << " s";
+  report(e, event.str());
+}
+
+void ProcessGroup::report(const Entry& e, const std::string& event) const {
+  if (options_.on_event) options_.on_event(e.spec.name, event);
 }
 
 void ProcessGroup::poll() {
@@ -187,7 +196,8 @@ void ProcessGroup::poll() {
       ++e.status.restarts;
       try {
         spawn(e);
-      } catch (const std::exception&) {
+      } catch (const std::exception& error) {
+        report(e, error.what());
         // The status already says why; retry after the longest backoff.
         e.status.state = ServiceState::backoff;
         e.restart_at = Clock::now() +
@@ -228,6 +238,7 @@ void ProcessGroup::restart(const std::string& name, const std::string& reason) {
   stop_one(e);
   e.status.last_error = reason;
   ++e.status.restarts;
+  report(e, reason + "; restart " + std::to_string(e.status.restarts) + " now");
   spawn(e);
 }
 

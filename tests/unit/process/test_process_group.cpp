@@ -4,7 +4,9 @@
 
 #include <chrono>
 #include <fstream>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include "thermovis/process/process_group.hpp"
 #include "thermovis/test/data.hpp"
@@ -43,12 +45,22 @@ TEST(ProcessGroup, FailingServiceIsRestartedWithBackoffAndLogsItsOutput) {
   tp::Manifest m;
   m.services.push_back(service("flaky", {"/bin/sh", "-c", "echo started ${word}; exit 3"},
                                tp::RestartPolicy::on_failure));
-  tp::ProcessGroup group(m, {{{"word", "here"}}, dir});
+  std::vector<std::string> events;
+  tp::ProcessGroup group(
+      m, {{{"word", "here"}}, dir, [&](const std::string& name, const std::string& event) {
+            events.push_back(name + ": " + event);
+          }});
   group.start_all();
   ASSERT_TRUE(poll_until(group, [&] { return group.status("flaky").restarts >= 3; }));
   const auto& st = group.status("flaky");
   EXPECT_EQ(st.last_exit_code, 3);
   EXPECT_NE(st.last_error.find("code 3"), std::string::npos) << st.last_error;
+  // Each exit is reported with its cause and the restart it leads to.
+  ASSERT_GE(events.size(), 3u);
+  EXPECT_NE(events[0].find("flaky: "), std::string::npos) << events[0];
+  EXPECT_NE(events[0].find("code 3"), std::string::npos) << events[0];
+  EXPECT_NE(events[0].find("restart 1 in"), std::string::npos) << events[0];
+  EXPECT_NE(events[2].find("restart 3 in"), std::string::npos) << events[2];
   group.stop_all();
   std::ifstream log(dir / "flaky.log");
   std::string first;

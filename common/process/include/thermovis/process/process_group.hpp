@@ -5,6 +5,7 @@
 
 #include <chrono>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <string>
 #include <vector>
@@ -29,6 +30,8 @@ struct ServiceStatus {
 struct ProcessGroupOptions {
   std::map<std::string, std::string> vars;  // for ${...} substitution (bin, config, domain, ...)
   std::filesystem::path log_dir;            // one <name>.log per service; created if missing
+  // Told of every exit, restart and failed start, in words (for the supervisor's log); optional.
+  std::function<void(const std::string& service, const std::string& event)> on_event;
 };
 
 class ProcessGroup {
@@ -65,6 +68,7 @@ class ProcessGroup {
   void handle_exit(Entry& entry, int wait_status);
   void stop_one(Entry& entry);
   Entry& entry(const std::string& name);
+  void report(const Entry& entry, const std::string& event) const;
 
   std::vector<Entry> entries_;  // in start order
   ProcessGroupOptions options_;
