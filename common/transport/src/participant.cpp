@@ -13,6 +13,8 @@
 #include <fastdds/dds/topic/Topic.hpp>
 #include <fastdds/rtps/flowcontrol/FlowControllerDescriptor.hpp>
 
+#include "thermovis/transport/shared_memory.hpp"
+
 namespace thermovis::transport {
 
 namespace dds = eprosima::fastdds::dds;
@@ -140,6 +142,8 @@ void add_security_files(dds::DomainParticipantQos& qos, const ParticipantConfig&
 }  // namespace
 
 Participant::Participant(const ParticipantConfig& config) : state_(std::make_shared<State>()) {
+  // Links the robust process-shared mutexes into every process with a participant.
+  static_cast<void>(robust_mutexes());
   if (config.domain_id < 0 || config.domain_id > 232) {
     throw std::invalid_argument("DDS domain id " + std::to_string(config.domain_id) +
                                 " out of range 0..232");

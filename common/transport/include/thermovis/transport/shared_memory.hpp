@@ -42,4 +42,13 @@ StaleSegments remove_stale_data_sharing_segments(
     std::chrono::seconds min_age = std::chrono::seconds(10),
     const std::filesystem::path& shm_dir = "/dev/shm");
 
+// Process-shared mutexes this process initialises are robust, and a lock that finds the holder
+// dead takes the mutex over (src/robust_mutex.cpp: Fast DDS's data-sharing notifications would
+// otherwise stay locked by a killed process).
+struct RobustMutexes {
+  std::uint64_t made_robust = 0;  // process-shared mutex attributes made robust so far
+  std::uint64_t recovered = 0;    // locks that took a mutex over from a dead holder
+};
+RobustMutexes robust_mutexes();
+
 }  // namespace thermovis::transport
