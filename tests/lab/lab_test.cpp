@@ -25,6 +25,7 @@
 #include <thread>
 #include <vector>
 
+#include "../integration/pipeline/range_truth.hpp"
 #include "lab_harness.hpp"
 #include "thermovis/frames.h"
 #include "thermovis/runtime/rig_io.hpp"
@@ -108,13 +109,6 @@ class SplitPipeline {
   std::vector<Service> services_;
 };
 
-// Distance of `point` from the line of sight through `direction` (infinite when behind).
-double off_axis_m(const Eigen::Vector3d& direction, const Eigen::Vector3d& point) {
-  const Eigen::Vector3d d = direction.normalized();
-  const double along = point.dot(d);
-  return along > 0 ? (point - along * d).norm() : std::numeric_limits<double>::infinity();
-}
-
 double percentile(std::vector<double> values, double p) {
   if (values.empty()) return 0.0;
   std::sort(values.begin(), values.end());
@@ -172,19 +166,10 @@ std::uint64_t tx_bytes(const Lab& lab, const std::filesystem::path& dir, const s
   return j[0]["stats64"]["tx"]["bytes"].get<std::uint64_t>();
 }
 
-struct Checked {
-  std::string truth_id;
-  double truth_m = 0, distance_m = 0;
-};
-
 // Range results received at the consumer, checked against the simulated truth.
 class RangeCheck {
  public:
-  explicit RangeCheck(tv::transport::Reader<tv::RangeArray>& reader)
-      : reader_(reader),
-        sim_(tv::runtime::load_rig(tv::runtime::default_rig_path()),
-             tv::runtime::load_scene(thermovis::test::source_root() / "deploy/scenes/paper.yaml"),
-             1, tv::sim::RenderOptions{false, false}) {}
+  explicit RangeCheck(tv::transport::Reader<tv::RangeArray>& reader) : reader_(reader) {}
 
   // Takes results until `until` or until `wanted` arrays with targets arrived (0: until `until`);
   // returns how many arrays with targets came.
@@ -200,67 +185,23 @@ class RangeCheck {
         ++got;
         last_ = Clock::now();
         if (!check) continue;
-        ++arrays_;
         latency_.add(a.stamps(), a.capture_time_ns(), received_ns);
-        add(a);
+        truth_.add(a);
       }
     }
     return got;
   }
 
-  // Per person ranged in at least a tenth of the arrays: mean distance within 6 % of the
-  // truth (tests/integration/pipeline); at least `people` such persons; few stray ranges.
-  void expect_like_one_host(int people) const {
-    std::map<std::string, std::vector<const Checked*>> by_target;
-    for (const auto& c : checked_) by_target[c.truth_id].push_back(&c);
-    int ranged = 0;
-    for (const auto& [id, list] : by_target) {
-      if (list.size() < arrays_ / 10) continue;
-      ++ranged;
-      double mean = 0, truth = 0;
-      for (const Checked* c : list) {
-        mean += c->distance_m;
-        truth += c->truth_m;
-      }
-      mean /= static_cast<double>(list.size());
-      truth /= static_cast<double>(list.size());
-      std::cout << "  " << id << ": " << list.size() << " ranges, mean " << mean << " m, truth "
-                << truth << " m\n";
-      EXPECT_NEAR(mean, truth, 0.06 * truth) << id << " over " << list.size() << " frames";
-    }
-    EXPECT_GE(ranged, people) << "people ranged in at least a tenth of " << arrays_ << " arrays";
-    EXPECT_LE(unmatched_, checked_.size() / 10) << "ranges in no simulated target's direction";
-  }
+  // As on one host (tests/integration/pipeline): each person within 6 % of the truth.
+  void expect_like_one_host(int people) const { truth_.expect_like_truth(people); }
 
-  std::size_t arrays() const { return arrays_; }
+  std::size_t arrays() const { return truth_.arrays(); }
   Clock::time_point last() const { return last_; }
   const PathLatency& latency() const { return latency_; }
 
  private:
-  void add(const tv::RangeArray& a) {
-    const auto truth = sim_.truth(static_cast<std::int64_t>(a.frame_seq()));
-    for (const tv::TargetRange& r : a.targets()) {
-      const tv::sim::TargetTruth* best = nullptr;
-      double best_offset = 0;
-      for (const auto& t : truth) {
-        const double offset = off_axis_m(Eigen::Vector3d(r.x_m(), r.y_m(), r.z_m()), t.position_m);
-        if (offset < 0.8 + 0.02 * t.distance_m && (best == nullptr || offset < best_offset)) {
-          best = &t;
-          best_offset = offset;
-        }
-      }
-      if (best == nullptr) {
-        ++unmatched_;
-        continue;
-      }
-      checked_.push_back({best->id, best->distance_m, r.distance_m()});
-    }
-  }
-
   tv::transport::Reader<tv::RangeArray>& reader_;
-  tv::sim::SimulatedRig sim_;
-  std::vector<Checked> checked_;
-  std::size_t arrays_ = 0, unmatched_ = 0;
+  thermovis::test::RangeTruth truth_;
   Clock::time_point last_{};
   PathLatency latency_;
 };
