@@ -16,6 +16,7 @@
 #include <thread>
 
 #include "pipeline_harness.hpp"
+#include "textured_pair.hpp"
 #include "thermovis/node/frame_codec.hpp"
 #include "thermovis/node/pipeline_grid.hpp"
 #include "thermovis/range/ranging.hpp"
@@ -394,19 +395,10 @@ TEST(Corrupt, RectifyFuseNamesEveryBadRawFrameAndServesTheNextGoodOne) {
   rf.stop_and_check_log({"pixel format 7, expected 1", "1920x540"});
 }
 
-// A textured pair on the pipeline grid whose right eye is the left shifted by `shift` columns.
+// The textured pair (textured_pair.hpp) as rectify-fuse would have stamped it.
 void fill_textured_pair(tv::GridStereoFrame& frame, cv::Size grid, int shift, std::uint64_t seq,
                         std::int64_t capture_ns) {
-  cv::Mat noise(grid, CV_8UC1), blurred;
-  cv::RNG rng(7);
-  rng.fill(noise, cv::RNG::UNIFORM, 0, 256);
-  cv::GaussianBlur(noise, blurred, cv::Size(5, 5), 1.2);
-  cv::Mat left = tv::node::prepare(frame, tv::node::Eye::left, grid, CV_8UC1);
-  cv::Mat right = tv::node::prepare(frame, tv::node::Eye::right, grid, CV_8UC1);
-  blurred.copyTo(left);
-  right.setTo(0);
-  blurred.colRange(shift, grid.width).copyTo(right.colRange(0, grid.width - shift));
-  frame.eyes(tv::EYES_BOTH);
+  tv::test::fill_textured_pair(frame, grid, shift, CV_8UC1);
   frame.seq(seq);
   frame.capture_time_ns(capture_ns);
   frame.stamps(stamps({{tv::STAGE_BRIDGE, capture_ns + 1'000'000},

@@ -19,6 +19,7 @@
 #include <thread>
 
 #include "pipeline_harness.hpp"
+#include "textured_pair.hpp"
 #include "thermovis/node/frame_codec.hpp"
 #include "thermovis/node/pipeline_grid.hpp"
 #include "thermovis/range/ranging.hpp"
@@ -182,20 +183,9 @@ TEST(Services, RangeReportsABadMatchArrayAndServesTheNextGoodOne) {
   EXPECT_NE(range.log().find("non-finite"), std::string::npos) << "the log names the problem";
 }
 
-// A textured stereo pair on the pipeline grid whose right eye is the left shifted by `shift`
-// columns (a fronto-parallel scene at one disparity).
+// The textured pair (textured_pair.hpp) in the fused band's format, captured at `seq` s.
 void fill_textured_pair(tv::GridStereoFrame& frame, cv::Size grid, int shift, std::uint64_t seq) {
-  cv::Mat left = tv::node::prepare(frame, tv::node::Eye::left, grid, CV_8UC3);
-  cv::Mat right = tv::node::prepare(frame, tv::node::Eye::right, grid, CV_8UC3);
-  cv::Mat noise(grid, CV_8UC1);
-  cv::RNG rng(42);
-  rng.fill(noise, cv::RNG::UNIFORM, 0, 256);
-  cv::Mat blurred;
-  cv::GaussianBlur(noise, blurred, cv::Size(5, 5), 1.2);
-  cv::Mat shifted = cv::Mat::zeros(grid, CV_8UC1);
-  blurred.colRange(shift, grid.width).copyTo(shifted.colRange(0, grid.width - shift));
-  cv::cvtColor(blurred, left, cv::COLOR_GRAY2BGR);
-  cv::cvtColor(shifted, right, cv::COLOR_GRAY2BGR);
+  tv::test::fill_textured_pair(frame, grid, shift, CV_8UC3);
   frame.seq(seq);
   frame.capture_time_ns(1'000'000'000LL * static_cast<std::int64_t>(seq));
   frame.stamps(tv::PipelineStamps{});
