@@ -18,4 +18,11 @@ inline constexpr const char* kHealth = "thermovis/health";          // Health (k
 // GridStereoFrame, BGR8: the fusion-ranging image (left; right is black), from thermovis-view.
 inline constexpr const char* kDisplay = "thermovis/display";
 
+// The ROS 2 republication (thermovis-ros2): ROS 2 maps its topic /thermovis/... to the DDS topic
+// rt/thermovis/... (types in idl/ros2/).
+inline constexpr const char* kRos2FusedImage = "rt/thermovis/fused/image";  // sensor_msgs/Image
+inline constexpr const char* kRos2Ranges = "rt/thermovis/ranges";  // thermovis_msgs/RangeArray
+inline constexpr const char* kRos2Detections =
+    "rt/thermovis/detections";  // thermovis_msgs/DetectionArray
+
 }  // namespace thermovis::transport::topics

@@ -1,0 +1,107 @@
+#include "ros2_bridge_node.hpp"
+
+#include "ros2_messages.hpp"
+#include "thermovis/node/frame_codec.hpp"
+#include "thermovis/node/service.hpp"
+#include "thermovis/transport/qos.hpp"
+#include "thermovis/transport/topics.hpp"
+
+namespace thermovis::ros2_bridge {
+
+namespace topics = transport::topics;
+
+namespace {
+
+// The fused frames as thermovis-view reads them: no DEADLINE (the bridge is not in the chain
+// whose rate the services watch).
+transport::TopicQos fused_reader_qos() {
+  return transport::frame_topic_qos(std::chrono::nanoseconds(0), 2, 2);
+}
+
+bool subscribed(const transport::WriterBase& writer) { return writer.counters().matched > 0; }
+
+}  // namespace
+
+Ros2BridgeNode::Ros2BridgeNode(transport::Participant& pipeline, transport::Participant& ros,
+                               const Ros2BridgeConfig& config, const std::string& service_name)
+    : config_(config),
+      fused_in_(pipeline, topics::kFused, fused_reader_qos()),
+      ranges_in_(pipeline, topics::kRanges, transport::event_topic_qos()),
+      detections_in_(pipeline, topics::kDetections, transport::event_topic_qos()),
+      image_out_(ros, topics::kRos2FusedImage, transport::event_topic_qos(config.image_depth)),
+      ranges_out_(ros, topics::kRos2Ranges, transport::event_topic_qos(config.event_depth)),
+      detections_out_(ros, topics::kRos2Detections,
+                      transport::event_topic_qos(config.event_depth)),
+      health_(pipeline, service_name, [this] {
+        return std::vector<transport::TopicCountersSnapshot>{
+            fused_in_.counters(),  ranges_in_.counters(),      detections_in_.counters(),
+            image_out_.counters(), ranges_out_.counters(), detections_out_.counters()};
+      }) {
+  health_.set_state(HEALTH_STARTING, "waiting for ROS 2 subscribers and pipeline data");
+}
+
+void Ros2BridgeNode::run() {
+  while (!node::stop_requested()) {
+    health_.tick();
+    // Fused frames come first, their ranges some milliseconds later: a short wait keeps the
+    // ranges' extra delay below it.
+    fused_in_.wait_for_data(std::chrono::milliseconds(10));
+    forward_fused();
+    forward_ranges();
+    forward_detections();
+  }
+  health_.set_state(HEALTH_STOPPING, "published " + std::to_string(stats_.images) + " images, " +
+                                         std::to_string(stats_.ranges) + " range arrays");
+}
+
+void Ros2BridgeNode::forward_fused() {
+  auto frames = fused_in_.take();
+  if (frames.empty()) return;
+  if (!subscribed(image_out_)) {
+    stats_.unsubscribed += frames.size();
+    return;
+  }
+  // Only the newest frame: an older one still queued is already late for a live view.
+  const std::size_t newest = frames.size() - 1;
+  stats_.unsubscribed += newest;
+  try {
+    to_ros_image(frames[newest], config_.image_frame_id, image_);
+  } catch (const node::FrameError& e) {
+    ++stats_.bad;
+    health_.bad_input(std::string(topics::kFused) + ": " + e.what());
+    return;
+  }
+  if (!frames.still_valid(newest)) {
+    ++stats_.overwritten;
+    return;
+  }
+  image_out_.write(image_);
+  ++stats_.images;
+  health_.frame_processed();
+}
+
+void Ros2BridgeNode::forward_ranges() {
+  auto arrays = ranges_in_.take();
+  for (std::size_t i = 0; i < arrays.size(); ++i) {
+    if (!subscribed(ranges_out_)) {
+      ++stats_.unsubscribed;
+      continue;
+    }
+    ranges_out_.write(to_ros(arrays[i], config_.ranges_frame_id));
+    ++stats_.ranges;
+  }
+}
+
+void Ros2BridgeNode::forward_detections() {
+  auto arrays = detections_in_.take();
+  for (std::size_t i = 0; i < arrays.size(); ++i) {
+    if (!subscribed(detections_out_)) {
+      ++stats_.unsubscribed;
+      continue;
+    }
+    detections_out_.write(to_ros(arrays[i], config_.image_frame_id));
+    ++stats_.detections;
+  }
+}
+
+}  // namespace thermovis::ros2_bridge
