@@ -8,8 +8,9 @@
 
 int main(int argc, char** argv) {
   using namespace thermovis;
-  CLI::App app{"thermovis-ros2: republishes the pipeline as ROS 2 topics (sensor_msgs/Image, "
-               "thermovis_msgs) on a UDP participant"};
+  CLI::App app{
+      "thermovis-ros2: republishes the pipeline as ROS 2 topics (sensor_msgs/Image, "
+      "thermovis_msgs) on a UDP participant"};
   node::CommonOptions common;
   common.service = "thermovis-ros2";
   transport::ParticipantConfig ros;

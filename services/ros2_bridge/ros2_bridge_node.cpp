@@ -30,11 +30,10 @@ Ros2BridgeNode::Ros2BridgeNode(transport::Participant& pipeline, transport::Part
       detections_in_(pipeline, topics::kDetections, transport::event_topic_qos()),
       image_out_(ros, topics::kRos2FusedImage, transport::event_topic_qos(config.image_depth)),
       ranges_out_(ros, topics::kRos2Ranges, transport::event_topic_qos(config.event_depth)),
-      detections_out_(ros, topics::kRos2Detections,
-                      transport::event_topic_qos(config.event_depth)),
+      detections_out_(ros, topics::kRos2Detections, transport::event_topic_qos(config.event_depth)),
       health_(pipeline, service_name, [this] {
         return std::vector<transport::TopicCountersSnapshot>{
-            fused_in_.counters(),  ranges_in_.counters(),      detections_in_.counters(),
+            fused_in_.counters(),  ranges_in_.counters(),  detections_in_.counters(),
             image_out_.counters(), ranges_out_.counters(), detections_out_.counters()};
       }) {
   health_.set_state(HEALTH_STARTING, "waiting for ROS 2 subscribers and pipeline data");

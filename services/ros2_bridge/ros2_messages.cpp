@@ -91,7 +91,8 @@ msgs::RangeArray_ to_ros(const RangeArray& ranges, const std::string& frame_id) 
     t.band_(static_cast<std::uint8_t>(r.band() <= BAND_FUSED ? r.band() : BAND_UNKNOWN));
     out.targets_().push_back(std::move(t));
   }
-  out.latency_ms_(static_cast<float>(transport::latency_ms(ranges.stamps(), ranges.capture_time_ns())));
+  out.latency_ms_(
+      static_cast<float>(transport::latency_ms(ranges.stamps(), ranges.capture_time_ns())));
   return out;
 }
 

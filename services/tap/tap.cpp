@@ -2,11 +2,15 @@
 
 #include <dds/dds.h>
 
+#include <chrono>
+#include <cstring>
 #include <fstream>
 #include <functional>
+#include <istream>
 #include <map>
 #include <ostream>
 #include <stdexcept>
+#include <thread>
 
 #include <nlohmann/json.hpp>
 
@@ -166,7 +170,130 @@ struct Entity {
   Entity& operator=(const Entity&) = delete;
 };
 
+// JSON (the format run_tap prints) -> C samples for --publish. Each throws std::invalid_argument
+// naming the field at fault.
+float number_field(const json& j, const char* key) {
+  const auto it = j.find(key);
+  if (it == j.end() || !it->is_number()) {
+    throw std::invalid_argument(std::string("'") + key + "' missing or not a number");
+  }
+  return it->get<float>();
+}
+
+thermovis_Box2D box_from_json(const json& j) {
+  if (!j.is_object()) throw std::invalid_argument("'box' is not an object");
+  return {number_field(j, "x"), number_field(j, "y"), number_field(j, "width"),
+          number_field(j, "height")};
+}
+
+void stamps_from_json(const json& j, thermovis_PipelineStamps& out) {
+  std::memset(&out, 0, sizeof out);  // every entry STAGE_NONE
+  if (j.is_null()) return;
+  if (!j.is_array() || j.size() > thermovis_MAX_STAGE_STAMPS) {
+    throw std::invalid_argument("'stamps' is not an array of at most " +
+                                std::to_string(thermovis_MAX_STAGE_STAMPS) + " entries");
+  }
+  for (std::size_t i = 0; i < j.size(); ++i) {
+    out.stamps[i].stage = j[i].at("stage").get<std::uint32_t>();
+    out.stamps[i].duration_us = j[i].at("duration_us").get<std::uint32_t>();
+    out.stamps[i].end_ns = j[i].at("end_ns").get<std::int64_t>();
+  }
+}
+
+// A DetectionArray whose detections live in `storage` (the sample does not own them).
+thermovis_DetectionArray detection_array_from_json(const json& j,
+                                                   std::vector<thermovis_Detection>& storage) {
+  thermovis_DetectionArray out{};
+  out.frame_seq = j.at("frame_seq").get<std::uint64_t>();
+  out.capture_time_ns = j.at("capture_time_ns").get<std::int64_t>();
+  const json& detections = j.at("detections");
+  if (!detections.is_array() || detections.size() > thermovis_MAX_TARGETS) {
+    throw std::invalid_argument("'detections' is not an array of at most " +
+                                std::to_string(thermovis_MAX_TARGETS) + " entries");
+  }
+  storage.assign(detections.size(), thermovis_Detection{});
+  for (std::size_t i = 0; i < detections.size(); ++i) {
+    const json& d = detections[i];
+    thermovis_Detection& t = storage[i];
+    t.target_id = d.at("target_id").get<std::uint32_t>();
+    const std::string label = d.at("label").get<std::string>();
+    if (label.size() > thermovis_MAX_LABEL_LENGTH) {
+      throw std::invalid_argument("detection " + std::to_string(i) + ": label '" + label +
+                                  "' longer than " + std::to_string(thermovis_MAX_LABEL_LENGTH));
+    }
+    std::memcpy(t.label, label.c_str(), label.size() + 1);
+    t.score = number_field(d, "score");
+    t.box = box_from_json(d.at("box"));
+  }
+  out.detections._buffer = storage.data();
+  out.detections._length = out.detections._maximum = static_cast<std::uint32_t>(storage.size());
+  out.detections._release = false;
+  stamps_from_json(j.contains("stamps") ? j["stamps"] : json(), out.stamps);
+  return out;
+}
+
 }  // namespace
+
+std::vector<std::string> publishable_topics() { return {"thermovis/detections"}; }
+
+std::uint64_t run_publisher(const PublishOptions& options, const std::atomic<bool>& stop,
+                            std::istream& in, std::ostream& log) {
+  if (options.topic != "thermovis/detections") {
+    throw std::runtime_error("cannot publish on '" + options.topic +
+                             "' (publishable: " + join(publishable_topics()) + ")");
+  }
+  const Entity participant(dds_create_participant(options.domain, nullptr, nullptr),
+                           "cannot create a DDS participant (check CYCLONEDDS_URI)");
+  const Entity topic(dds_create_topic(participant.handle, &thermovis_DetectionArray_desc,
+                                      options.topic.c_str(), nullptr, nullptr),
+                     "cannot create topic");
+  // The pipeline's event QoS: RELIABLE, VOLATILE; a deeper history so a burst is not replaced.
+  dds_qos_t* qos = dds_create_qos();
+  dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
+  dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, 64);
+  const dds_entity_t writer = dds_create_writer(participant.handle, topic.handle, qos, nullptr);
+  dds_delete_qos(qos);
+  if (writer < 0)
+    throw std::runtime_error(std::string("cannot create writer: ") + dds_strretcode(writer));
+
+  const auto until =
+      std::chrono::steady_clock::now() + std::chrono::duration<double>(options.wait_s);
+  for (;;) {
+    dds_publication_matched_status_t status{};
+    dds_get_publication_matched_status(writer, &status);
+    if (status.current_count >= options.wait_readers || stop) break;
+    if (std::chrono::steady_clock::now() > until) {
+      throw std::runtime_error("no reader of " + options.topic + " within " +
+                               std::to_string(options.wait_s) + " s (" +
+                               std::to_string(status.current_count) + " of " +
+                               std::to_string(options.wait_readers) + " matched)");
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+
+  std::uint64_t published = 0, line_number = 0;
+  std::vector<thermovis_Detection> storage;
+  for (std::string line; !stop && std::getline(in, line);) {
+    ++line_number;
+    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    thermovis_DetectionArray sample;
+    try {
+      sample = detection_array_from_json(json::parse(line), storage);
+    } catch (const std::exception& e) {
+      log << "thermovis-tap: line " << line_number << ": not a DetectionArray: " << e.what()
+          << " (skipped)\n"
+          << std::flush;
+      continue;
+    }
+    const dds_return_t rc = dds_write(writer, &sample);
+    if (rc != DDS_RETCODE_OK)
+      throw std::runtime_error(std::string("write failed: ") + dds_strretcode(rc));
+    ++published;
+  }
+  // Every reader has the samples before the participant goes.
+  dds_wait_for_acks(writer, DDS_SECS(10));
+  return published;
+}
 
 std::vector<std::string> known_topics() {
   std::vector<std::string> names;

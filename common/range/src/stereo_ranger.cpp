@@ -127,14 +127,10 @@ RectifiedFrames StereoRanger::rectify(const RawFrames& raw) const {
   return out;
 }
 
-cv::Rect StereoRanger::raw_box_to_rectified(Mode mode, double x_min, double y_min, double x_max,
-                                            double y_max) const {
-  const camera::Rig& rig = impl_->rig;
-  const camera::RigCamera& cam =
-      rig.camera(mode == Mode::infrared ? rig.infrared.left : rig.visible.left);
-  const RangingGeometry& g = geometry(mode);
-  const Eigen::Matrix3d R_rect_cam =
-      g.T_ref_left_rect.rotation().transpose() * cam.T_ref_cam.rotation();
+cv::Rect raw_box_on_grid(const camera::RigCamera& cam, const Eigen::Isometry3d& T_ref_rect,
+                         const camera::RectifiedCamera& grid, double x_min, double y_min,
+                         double x_max, double y_max) {
+  const Eigen::Matrix3d R_rect_cam = T_ref_rect.rotation().transpose() * cam.T_ref_cam.rotation();
   double lo_x = 1e30, lo_y = 1e30, hi_x = -1e30, hi_y = -1e30;
   const int steps = 16;
   for (int i = 0; i <= steps; ++i) {
@@ -145,7 +141,7 @@ cv::Rect StereoRanger::raw_box_to_rectified(Mode mode, double x_min, double y_mi
                                      Eigen::Vector2d(x_max, y_min + t * (y_max - y_min))}) {
       Eigen::Vector3d ray;
       Eigen::Vector2d q;
-      if (!cam.model->unproject(p, ray) || !g.grid.project(R_rect_cam * ray, q)) continue;
+      if (!cam.model->unproject(p, ray) || !grid.project(R_rect_cam * ray, q)) continue;
       lo_x = std::min(lo_x, q.x());
       lo_y = std::min(lo_y, q.y());
       hi_x = std::max(hi_x, q.x());
@@ -156,6 +152,15 @@ cv::Rect StereoRanger::raw_box_to_rectified(Mode mode, double x_min, double y_mi
   const int x0 = static_cast<int>(std::floor(lo_x)), y0 = static_cast<int>(std::floor(lo_y));
   return {x0, y0, static_cast<int>(std::ceil(hi_x)) - x0 + 1,
           static_cast<int>(std::ceil(hi_y)) - y0 + 1};
+}
+
+cv::Rect StereoRanger::raw_box_to_rectified(Mode mode, double x_min, double y_min, double x_max,
+                                            double y_max) const {
+  const camera::Rig& rig = impl_->rig;
+  const camera::RigCamera& cam =
+      rig.camera(mode == Mode::infrared ? rig.infrared.left : rig.visible.left);
+  const RangingGeometry& g = geometry(mode);
+  return raw_box_on_grid(cam, g.T_ref_left_rect, g.grid, x_min, y_min, x_max, y_max);
 }
 
 cv::Rect StereoRanger::infrared_box_to_visible(const cv::Rect& box) const {

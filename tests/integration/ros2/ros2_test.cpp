@@ -124,8 +124,8 @@ class Ros2Bridge : public ::testing::Test {
         *participant_, topics::kFused, tv::transport::frame_topic_qos(0ns, 2, 2));
     ranges_ = std::make_unique<tv::transport::Writer<tv::RangeArray>>(
         *participant_, topics::kRanges, tv::transport::event_topic_qos());
-    health_ = std::make_unique<tv::transport::Reader<tv::Health>>(
-        *participant_, topics::kHealth, tv::transport::state_topic_qos());
+    health_ = std::make_unique<tv::transport::Reader<tv::Health>>(*participant_, topics::kHealth,
+                                                                  tv::transport::state_topic_qos());
   }
   void TearDown() override { std::filesystem::remove_all(dir_); }
 
@@ -239,8 +239,7 @@ TEST_F(Ros2Bridge, RepublishesFusedImageAndRangesForRos2OnlyWhileSubscribed) {
   while (std::chrono::steady_clock::now() < match_until &&
          !(CycloneSide::matched(ros.images) && CycloneSide::matched(ros.ranges)))
     std::this_thread::sleep_for(20ms);
-  ASSERT_TRUE(CycloneSide::matched(ros.images) && CycloneSide::matched(ros.ranges))
-      << bridge.log();
+  ASSERT_TRUE(CycloneSide::matched(ros.images) && CycloneSide::matched(ros.ranges)) << bridge.log();
 
   // Captures 100.. alternate bgr8 and mono8; one corrupt frame in between.
   std::map<std::int64_t, std::uint64_t> seq_of_capture;

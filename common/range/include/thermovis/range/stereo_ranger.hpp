@@ -25,6 +25,12 @@
 
 namespace thermovis::range {
 
+// A box of a raw image of `raw` ([x_min, y_min, x_max, y_max] px) on the rectified `grid` whose
+// frame is T_ref_rect: the bounding box of its border's rays (empty when none reaches the grid).
+cv::Rect raw_box_on_grid(const camera::RigCamera& raw, const Eigen::Isometry3d& T_ref_rect,
+                         const camera::RectifiedCamera& grid, double x_min, double y_min,
+                         double x_max, double y_max);
+
 enum class Mode { visible, infrared, fused };
 std::string mode_name(Mode mode);
 // "visible" | "infrared" | "fused"; throws std::invalid_argument.
