@@ -13,6 +13,7 @@ packages=(
   clang-format iproute2 procps
   clang libclang-rt-14-dev
   libcpp-httplib-dev chromium chromium-driver
+  libzstd-dev zlib1g-dev
   openssl
 )
 

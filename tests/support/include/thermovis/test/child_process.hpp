@@ -63,13 +63,15 @@ class ChildProcess {
 
   // Exit code (or -signal), or nothing on timeout (the child is then killed).
   std::optional<int> wait(std::chrono::milliseconds timeout) {
+    if (exited_) return code_;
     const auto until = std::chrono::steady_clock::now() + timeout;
     while (true) {
       int status = 0;
       const pid_t r = ::waitpid(pid_, &status, WNOHANG);
       if (r == pid_) {
         exited_ = true;
-        return WIFEXITED(status) ? WEXITSTATUS(status) : -WTERMSIG(status);
+        code_ = WIFEXITED(status) ? WEXITSTATUS(status) : -WTERMSIG(status);
+        return code_;
       }
       if (std::chrono::steady_clock::now() >= until) {
         ::kill(pid_, SIGKILL);
@@ -79,6 +81,16 @@ class ChildProcess {
       }
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
     }
+  }
+
+  // Exit code (or -signal) once the child has exited; nothing while it runs (it is left running).
+  std::optional<int> poll() {
+    if (exited_) return code_;
+    int status = 0;
+    if (::waitpid(pid_, &status, WNOHANG) != pid_) return std::nullopt;
+    exited_ = true;
+    code_ = WIFEXITED(status) ? WEXITSTATUS(status) : -WTERMSIG(status);
+    return code_;
   }
 
   void signal(int sig) const { ::kill(pid_, sig); }
@@ -95,6 +107,7 @@ class ChildProcess {
   std::filesystem::path log_;
   pid_t pid_ = -1;
   bool exited_ = false;
+  std::optional<int> code_;  // known after poll() saw the exit
 };
 
 }  // namespace thermovis::test

@@ -1,0 +1,265 @@
+#include "recording.hpp"
+
+#include <map>
+#include <optional>
+#include <sstream>
+#include <stdexcept>
+
+#include "idl_text.hpp"
+#include "thermovis/record/idl_schema.hpp"
+#include "thermovis/transport/reader.hpp"
+#include "thermovis/transport/topic_types.hpp"
+#include "thermovis/transport/topics.hpp"
+#include "thermovis/transport/writer.hpp"
+
+namespace thermovis::cli {
+
+namespace topics = transport::topics;
+using eprosima::fastrtps::rtps::SerializedPayload_t;
+
+namespace {
+
+// Readers of the rectified grids on the rectify-fuse's writers (rectify_fuse_node.cpp).
+constexpr std::int32_t kGridFrameReaders = 4;
+
+}  // namespace
+
+const std::vector<RecordableTopic>& recordable_topics() {
+  using transport::frame_topic_qos;
+  static const std::vector<RecordableTopic> table{
+      {topics::kVisibleFrames, "thermovis::VisibleStereoFrame", "thermovis/frames.idl", true,
+       frame_topic_qos()},
+      {topics::kInfraredFrames, "thermovis::InfraredStereoFrame", "thermovis/frames.idl", true,
+       frame_topic_qos()},
+      {topics::kRectifiedVisible, "thermovis::GridStereoFrame", "thermovis/frames.idl", true,
+       frame_topic_qos(transport::kDefaultFrameDeadline, 2, kGridFrameReaders)},
+      {topics::kRectifiedInfrared, "thermovis::GridStereoFrame", "thermovis/frames.idl", true,
+       frame_topic_qos(transport::kDefaultFrameDeadline, 2, kGridFrameReaders)},
+      {topics::kFused, "thermovis::GridStereoFrame", "thermovis/frames.idl", true,
+       frame_topic_qos(transport::kDefaultFrameDeadline, 2, kGridFrameReaders)},
+      {topics::kDisplay, "thermovis::GridStereoFrame", "thermovis/frames.idl", true,
+       frame_topic_qos()},
+      {topics::kDetections, "thermovis::DetectionArray", "thermovis/perception.idl", false,
+       transport::event_topic_qos()},
+      {topics::kMatches, "thermovis::MatchArray", "thermovis/perception.idl", false,
+       transport::event_topic_qos()},
+      {topics::kRanges, "thermovis::RangeArray", "thermovis/perception.idl", false,
+       transport::event_topic_qos()},
+      {topics::kTiming, "thermovis::FrameTiming", "thermovis/perception.idl", false,
+       transport::event_topic_qos()},
+      {topics::kHealth, "thermovis::Health", "thermovis/health.idl", false,
+       transport::state_topic_qos()},
+  };
+  return table;
+}
+
+const RecordableTopic& recordable_topic(const std::string& topic) {
+  std::string known;
+  for (const auto& t : recordable_topics()) {
+    if (t.topic == topic) return t;
+    known += (known.empty() ? "" : ", ") + t.topic;
+  }
+  throw std::invalid_argument("unknown topic '" + topic + "' (known: " + known + ")");
+}
+
+std::vector<RecordableTopic> parse_topic_list(const std::string& list,
+                                              const std::vector<std::string>& defaults) {
+  std::vector<std::string> names;
+  std::istringstream in(list);
+  for (std::string name; std::getline(in, name, ',');) {
+    if (!name.empty()) names.push_back(name);
+  }
+  if (names.empty()) names = defaults;
+  std::vector<RecordableTopic> out;
+  for (const auto& name : names) {
+    for (const auto& o : out) {
+      if (o.topic == name) throw std::invalid_argument("topic '" + name + "' listed twice");
+    }
+    out.push_back(recordable_topic(name));
+  }
+  return out;
+}
+
+std::string schema_text(const RecordableTopic& topic) {
+  return record::flatten_idl(topic.idl_file, [](const std::string& file) {
+    const auto& files = idl_files();
+    const auto it = files.find(file);
+    if (it == files.end())
+      throw std::runtime_error("IDL file " + file + " is not built into this executable");
+    return it->second;
+  });
+}
+
+namespace {
+
+// The capture and stage times a replay moves to the present.
+void shift_stamps(PipelineStamps& stamps, std::int64_t shift) {
+  for (StageStamp& s : stamps.stamps()) {
+    if (s.stage() != STAGE_NONE) s.end_ns(s.end_ns() + shift);
+  }
+}
+template <class T>
+void shift_times(T& sample, std::int64_t shift) {
+  sample.capture_time_ns(sample.capture_time_ns() + shift);
+  shift_stamps(sample.stamps(), shift);
+}
+void shift_times(FrameTiming& timing, std::int64_t shift) {
+  timing.capture_time_ns(timing.capture_time_ns() + shift);
+  timing.output_time_ns(timing.output_time_ns() + shift);
+  shift_stamps(timing.stamps(), shift);
+}
+void shift_times(Health& health, std::int64_t shift) { health.time_ns(health.time_ns() + shift); }
+
+template <class T>
+constexpr bool kIsFrame = std::is_same_v<T, VisibleStereoFrame> ||
+                          std::is_same_v<T, InfraredStereoFrame> ||
+                          std::is_same_v<T, GridStereoFrame>;
+
+// A payload over bytes this code owns: Fast DDS frees `data` in the destructor, so it is
+// detached first.
+struct BorrowedPayload {
+  SerializedPayload_t payload;
+  BorrowedPayload(std::uint8_t* data, std::size_t size) {
+    payload.data = data;
+    payload.length = static_cast<std::uint32_t>(size);
+    payload.max_size = static_cast<std::uint32_t>(size);
+  }
+  ~BorrowedPayload() { payload.data = nullptr; }
+  BorrowedPayload(const BorrowedPayload&) = delete;
+  BorrowedPayload& operator=(const BorrowedPayload&) = delete;
+};
+
+template <class T>
+class Tap final : public TopicTap {
+ public:
+  Tap(transport::Participant& participant, const RecordableTopic& topic)
+      : topic_(topic.topic), reader_(participant, topic.topic, tap_qos(topic)) {}
+
+  std::size_t poll(std::chrono::milliseconds timeout,
+                   const std::function<void(TappedSample&&)>& sink) override {
+    reader_.wait_for_data(timeout);
+    auto samples = reader_.take();
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+      T* sample = const_cast<T*>(&samples[i]);  // Fast DDS's serialize takes void*, only reads
+      TappedSample out;
+      out.cdr.resize(pubsub_.getSerializedSizeProvider(sample)());
+      BorrowedPayload payload(out.cdr.data(), out.cdr.size());
+      payload.payload.length = 0;
+      if (!pubsub_.serialize(sample, &payload.payload))
+        throw std::runtime_error(topic_ + ": a sample does not serialize");
+      out.cdr.resize(payload.payload.length);
+      // A frame's data-sharing slot reused by its writer while it was copied: a torn copy, not
+      // recorded (the next sample's sequence gap counts it as missed).
+      if (!samples.still_valid(i)) continue;
+      const auto& info = samples.info(i);
+      out.publish_ns = info.source_timestamp.to_ns();
+      out.writer_sequence = info.sample_identity.sequence_number().to64long();
+      auto& last = last_sequence_[info.sample_identity.writer_guid()];
+      if (last != 0 && out.writer_sequence > last + 1) out.missed_before = out.writer_sequence - last - 1;
+      last = out.writer_sequence;
+      sink(std::move(out));
+    }
+    return samples.size();
+  }
+
+ private:
+  static transport::TopicQos tap_qos(const RecordableTopic& topic) {
+    transport::TopicQos qos = topic.qos;
+    qos.deadline = std::chrono::nanoseconds(0);  // requests none: matches any writer's offer
+    if (qos.kind == transport::TopicKind::event) qos.depth = 64;  // rides out a slow disk
+    return qos;
+  }
+  std::string topic_;
+  transport::Reader<T> reader_;
+  typename transport::TypeSupportOf<T>::type pubsub_;
+  std::map<eprosima::fastrtps::rtps::GUID_t, std::uint64_t> last_sequence_;
+};
+
+template <class T>
+class Player final : public TopicPlayer {
+ public:
+  Player(transport::Participant& participant, const RecordableTopic& topic)
+      : topic_(topic.topic), writer_(participant, topic.topic, topic.qos) {}
+
+  bool publish(const std::uint8_t* cdr, std::size_t size, std::int64_t time_shift_ns) override {
+    BorrowedPayload payload(const_cast<std::uint8_t*>(cdr), size);  // deserialize only reads
+    if constexpr (kIsFrame<T>) {
+      std::optional<transport::Loan<T>> loan;
+      try {
+        loan.emplace(writer_.loan());
+      } catch (const std::runtime_error&) {
+        return false;  // every slot held by readers: dropped, as the bridge drops a capture
+      }
+      decode(payload, loan->get());
+      shift_times(**loan, time_shift_ns);
+      writer_.publish(std::move(*loan));
+    } else {
+      T sample;
+      decode(payload, &sample);
+      shift_times(sample, time_shift_ns);
+      writer_.write(sample);
+    }
+    return true;
+  }
+
+  bool wait_for_readers(std::chrono::milliseconds timeout) override {
+    return writer_.wait_for_readers(1, timeout);
+  }
+
+ private:
+  void decode(BorrowedPayload& payload, T* into) {
+    bool ok = false;
+    try {
+      ok = pubsub_.deserialize(&payload.payload, into);
+    } catch (const std::exception&) {
+      ok = false;  // Fast CDR throws on a buffer that ends early
+    }
+    if (!ok)
+      throw std::runtime_error(topic_ + ": a recorded sample of " +
+                               std::to_string(payload.payload.length) +
+                               " bytes does not decode as its type");
+  }
+  std::string topic_;
+  transport::Writer<T> writer_;
+  typename transport::TypeSupportOf<T>::type pubsub_;
+};
+
+// A type tag (the frame types are megabytes: never on the stack).
+template <class T>
+struct Tag {
+  using type = T;
+};
+
+// Calls make(Tag<T>{}) with the generated type named `type_name`.
+template <class Make>
+auto with_type_tag(const std::string& type_name, Make&& make) {
+  if (type_name == "thermovis::VisibleStereoFrame") return make(Tag<VisibleStereoFrame>{});
+  if (type_name == "thermovis::InfraredStereoFrame") return make(Tag<InfraredStereoFrame>{});
+  if (type_name == "thermovis::GridStereoFrame") return make(Tag<GridStereoFrame>{});
+  if (type_name == "thermovis::DetectionArray") return make(Tag<DetectionArray>{});
+  if (type_name == "thermovis::MatchArray") return make(Tag<MatchArray>{});
+  if (type_name == "thermovis::RangeArray") return make(Tag<RangeArray>{});
+  if (type_name == "thermovis::FrameTiming") return make(Tag<FrameTiming>{});
+  if (type_name == "thermovis::Health") return make(Tag<Health>{});
+  throw std::invalid_argument("no DDS type " + type_name);
+}
+
+}  // namespace
+
+std::unique_ptr<TopicTap> make_tap(transport::Participant& participant,
+                                   const RecordableTopic& topic) {
+  return with_type_tag(topic.type_name, [&](auto tag) -> std::unique_ptr<TopicTap> {
+    using T = typename decltype(tag)::type;
+    return std::make_unique<Tap<T>>(participant, topic);
+  });
+}
+
+std::unique_ptr<TopicPlayer> make_player(transport::Participant& participant,
+                                         const RecordableTopic& topic) {
+  return with_type_tag(topic.type_name, [&](auto tag) -> std::unique_ptr<TopicPlayer> {
+    using T = typename decltype(tag)::type;
+    return std::make_unique<Player<T>>(participant, topic);
+  });
+}
+
+}  // namespace thermovis::cli

@@ -1,0 +1,72 @@
+#pragma once
+// What `thermovis record` and `thermovis replay` share: the table of recordable topics (name,
+// IDL type, QoS), a tap that takes one topic's samples as CDR bytes (the serialized payload
+// DDS sends, with its encapsulation header: MCAP message encoding "cdr"), and a player that
+// publishes such bytes back on the topic (frames into loaned data-sharing samples, as the
+// bridge does).
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "thermovis/transport/participant.hpp"
+#include "thermovis/transport/qos.hpp"
+
+namespace thermovis::cli {
+
+struct RecordableTopic {
+  std::string topic;      // e.g. "thermovis/ranges"
+  std::string type_name;  // IDL name, e.g. "thermovis::RangeArray" (the MCAP schema name)
+  std::string idl_file;   // the IDL file declaring it, e.g. "thermovis/perception.idl"
+  bool frame = false;     // a plain frame type (megabytes; data-sharing with loans)
+  transport::TopicQos qos;
+};
+
+// Every topic of topics.hpp.
+const std::vector<RecordableTopic>& recordable_topics();
+// The entry of `topic`; throws std::invalid_argument listing the known topics.
+const RecordableTopic& recordable_topic(const std::string& topic);
+// "a,b,c" -> entries; empty -> `defaults`.
+std::vector<RecordableTopic> parse_topic_list(const std::string& list,
+                                              const std::vector<std::string>& defaults);
+
+// The self-contained IDL text of a topic's type (MCAP schema encoding "omgidl"): its IDL file with
+// the files it includes inlined, as built into this executable.
+std::string schema_text(const RecordableTopic& topic);
+
+// One sample as recorded: its CDR payload and what DDS says about it.
+struct TappedSample {
+  std::vector<std::uint8_t> cdr;
+  std::int64_t publish_ns = 0;         // the writer's source timestamp
+  std::uint64_t writer_sequence = 0;   // the writer's sequence number of the sample
+  std::uint64_t missed_before = 0;     // samples of that writer this reader never got before it
+};
+
+// Takes one topic's samples. Not thread-safe; one thread per tap.
+class TopicTap {
+ public:
+  virtual ~TopicTap() = default;
+  // Waits up to `timeout` for samples and hands each to `sink`. Returns the number taken.
+  virtual std::size_t poll(std::chrono::milliseconds timeout,
+                           const std::function<void(TappedSample&&)>& sink) = 0;
+};
+std::unique_ptr<TopicTap> make_tap(transport::Participant& participant,
+                                   const RecordableTopic& topic);
+
+// Publishes recorded samples on one topic.
+class TopicPlayer {
+ public:
+  virtual ~TopicPlayer() = default;
+  // Deserializes `cdr` and publishes it, with every capture and stage time moved by
+  // `time_shift_ns`. False when the sample was dropped because every pool slot of a frame topic
+  // is held by readers (the bridge drops a capture the same way). Throws std::runtime_error when
+  // the bytes do not decode as the topic's type.
+  virtual bool publish(const std::uint8_t* cdr, std::size_t size, std::int64_t time_shift_ns) = 0;
+  virtual bool wait_for_readers(std::chrono::milliseconds timeout) = 0;
+};
+std::unique_ptr<TopicPlayer> make_player(transport::Participant& participant,
+                                         const RecordableTopic& topic);
+
+}  // namespace thermovis::cli
