@@ -9,8 +9,8 @@
 #include <iostream>
 #include <map>
 #include <mutex>
-#include <optional>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <thread>
 
 #include "command.hpp"
@@ -39,9 +39,8 @@ struct Options {
 
 const std::vector<std::string>& default_topics() {
   namespace t = tv::transport::topics;
-  static const std::vector<std::string> names{t::kVisibleFrames, t::kInfraredFrames,
-                                              t::kDetections,    t::kMatches,
-                                              t::kRanges,        t::kTiming};
+  static const std::vector<std::string> names{t::kVisibleFrames, t::kInfraredFrames, t::kDetections,
+                                              t::kMatches,       t::kRanges,         t::kTiming};
   return names;
 }
 
@@ -68,8 +67,8 @@ class SampleQueue {
     if (bytes_ + sample.cdr.size() > max_bytes_ && !items_.empty()) return false;
     bytes_ += sample.cdr.size();
     // The log time is taken under the lock: the file's messages are in log-time order.
-    items_.push_back({channel, static_cast<std::uint64_t>(tv::transport::now_ns()),
-                      std::move(sample)});
+    items_.push_back(
+        {channel, static_cast<std::uint64_t>(tv::transport::now_ns()), std::move(sample)});
     ready_.notify_one();
     return true;
   }
@@ -95,8 +94,8 @@ int run_record(const Options& opt) {
   const auto topics = tv::cli::parse_topic_list(opt.topics, default_topics());
   tv::record::McapWriterOptions wo;
   wo.library = "thermovis record";
-  wo.compression =
-      opt.compression == "zstd" ? tv::record::McapCompression::zstd : tv::record::McapCompression::none;
+  wo.compression = opt.compression == "zstd" ? tv::record::McapCompression::zstd
+                                             : tv::record::McapCompression::none;
   wo.zstd_level = opt.zstd_level;
   tv::record::McapWriter writer(opt.out, wo);
   auto participant = tv::node::make_participant(opt.common);
@@ -173,22 +172,23 @@ int run_record(const Options& opt) {
     missed += counts[i].missed;
     dropped += counts[i].dropped;
   }
-  const nlohmann::json summary{{"file", opt.out.string()},
-                               {"seconds", seconds},
-                               {"messages", writer.statistics().message_count},
-                               {"payload_mb", static_cast<double>(payload_bytes) / 1e6},
-                               {"file_mb", file_mb},
-                               {"record_mb_per_s", static_cast<double>(payload_bytes) / 1e6 / seconds},
-                               {"missed", missed},
-                               {"dropped", dropped},
-                               {"topics", per_topic}};
+  const nlohmann::json summary{
+      {"file", opt.out.string()},
+      {"seconds", seconds},
+      {"messages", writer.statistics().message_count},
+      {"payload_mb", static_cast<double>(payload_bytes) / 1e6},
+      {"file_mb", file_mb},
+      {"record_mb_per_s", static_cast<double>(payload_bytes) / 1e6 / seconds},
+      {"missed", missed},
+      {"dropped", dropped},
+      {"topics", per_topic}};
   if (json) {
     std::cout << summary.dump() << std::endl;
   } else {
     std::cout << std::fixed << std::setprecision(1) << "recorded " << summary["messages"]
               << " messages in " << seconds << " s: " << summary["payload_mb"].get<double>()
-              << " MB of samples (" << summary["record_mb_per_s"].get<double>()
-              << " MB/s), file " << file_mb << " MB\n";
+              << " MB of samples (" << summary["record_mb_per_s"].get<double>() << " MB/s), file "
+              << file_mb << " MB\n";
     for (std::size_t i = 0; i < topics.size(); ++i) {
       std::cout << "  " << std::left << std::setw(30) << topics[i].topic << std::right
                 << std::setw(8) << counts[i].recorded << " recorded" << std::setw(8)
@@ -200,8 +200,7 @@ int run_record(const Options& opt) {
 }
 
 THERMOVIS_COMMAND(
-    "record",
-    "record pipeline topics into an MCAP file (Foxglove, ROS 2 tools, thermovis replay)",
+    "record", "record pipeline topics into an MCAP file (Foxglove, ROS 2 tools, thermovis replay)",
     [](CLI::App& app) -> thermovis::cli::Runner {
       auto opt = std::make_shared<Options>();
       opt->common.service = "thermovis-record";

@@ -4,8 +4,8 @@
 #include <filesystem>
 #include <iostream>
 #include <map>
-#include <optional>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <thread>
 
 #include "command.hpp"
@@ -60,8 +60,8 @@ int run_replay(const Options& opt) {
     if (channel->message_encoding != "cdr" || schema == reader.schemas().end() ||
         schema->second.name != topic.type_name) {
       throw std::invalid_argument(
-          opt.in.string() + ": channel '" + topic.topic + "' holds " +
-          channel->message_encoding + " messages of schema '" +
+          opt.in.string() + ": channel '" + topic.topic + "' holds " + channel->message_encoding +
+          " messages of schema '" +
           (schema == reader.schemas().end() ? std::string("none") : schema->second.name) +
           "', not cdr " + topic.type_name);
     }
@@ -75,9 +75,9 @@ int run_replay(const Options& opt) {
                 << " s; playing anyway" << std::endl;
   }
   if (!opt.json) {
-    std::cout << "thermovis replay: " << opt.in.string() << " onto DDS domain "
-              << opt.common.domain << " at " << opt.rate_scale << "x"
-              << (opt.loop ? ", looping" : "") << " (Ctrl-C stops)" << std::endl;
+    std::cout << "thermovis replay: " << opt.in.string() << " onto DDS domain " << opt.common.domain
+              << " at " << opt.rate_scale << "x" << (opt.loop ? ", looping" : "")
+              << " (Ctrl-C stops)" << std::endl;
   }
 
   using Clock = std::chrono::steady_clock;
@@ -100,9 +100,9 @@ int run_replay(const Options& opt) {
                     ? 0
                     : tv::transport::now_ns() - static_cast<std::int64_t>(m.log_time);
       }
-      const auto due = pass_start + std::chrono::duration_cast<Clock::duration>(
-                                        std::chrono::nanoseconds(m.log_time - *first_log) /
-                                        opt.rate_scale);
+      const auto due =
+          pass_start + std::chrono::duration_cast<Clock::duration>(
+                           std::chrono::nanoseconds(m.log_time - *first_log) / opt.rate_scale);
       std::this_thread::sleep_until(due);
       Played& p = it->second;
       try {

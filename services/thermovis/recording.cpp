@@ -111,9 +111,9 @@ void shift_times(FrameTiming& timing, std::int64_t shift) {
 void shift_times(Health& health, std::int64_t shift) { health.time_ns(health.time_ns() + shift); }
 
 template <class T>
-constexpr bool kIsFrame = std::is_same_v<T, VisibleStereoFrame> ||
-                          std::is_same_v<T, InfraredStereoFrame> ||
-                          std::is_same_v<T, GridStereoFrame>;
+constexpr bool kIsFrame =
+    std::is_same_v<T, VisibleStereoFrame> || std::is_same_v<T, InfraredStereoFrame> ||
+    std::is_same_v<T, GridStereoFrame>;
 
 // A payload over bytes this code owns: Fast DDS frees `data` in the destructor, so it is
 // detached first.
@@ -155,7 +155,8 @@ class Tap final : public TopicTap {
       out.publish_ns = info.source_timestamp.to_ns();
       out.writer_sequence = info.sample_identity.sequence_number().to64long();
       auto& last = last_sequence_[info.sample_identity.writer_guid()];
-      if (last != 0 && out.writer_sequence > last + 1) out.missed_before = out.writer_sequence - last - 1;
+      if (last != 0 && out.writer_sequence > last + 1)
+        out.missed_before = out.writer_sequence - last - 1;
       last = out.writer_sequence;
       sink(std::move(out));
     }

@@ -39,9 +39,9 @@ std::string schema_text(const RecordableTopic& topic);
 // One sample as recorded: its CDR payload and what DDS says about it.
 struct TappedSample {
   std::vector<std::uint8_t> cdr;
-  std::int64_t publish_ns = 0;         // the writer's source timestamp
-  std::uint64_t writer_sequence = 0;   // the writer's sequence number of the sample
-  std::uint64_t missed_before = 0;     // samples of that writer this reader never got before it
+  std::int64_t publish_ns = 0;        // the writer's source timestamp
+  std::uint64_t writer_sequence = 0;  // the writer's sequence number of the sample
+  std::uint64_t missed_before = 0;    // samples of that writer this reader never got before it
 };
 
 // Takes one topic's samples. Not thread-safe; one thread per tap.

@@ -102,9 +102,10 @@ McapReader::McapReader(const std::filesystem::path& path) : path_(path) {
   }
   read_at(size_ - 8, magic, 8);
   if (std::memcmp(magic, fmt::kMagic, 8) != 0) {
-    fail("truncated: the file does not end with the MCAP magic (a recording that was not closed, "
-         "or a partial copy)",
-         size_ - 8);
+    fail(
+        "truncated: the file does not end with the MCAP magic (a recording that was not closed, "
+        "or a partial copy)",
+        size_ - 8);
   }
   // Header, first record after the magic.
   std::uint8_t head[fmt::kRecordHeaderSize];
@@ -138,9 +139,8 @@ McapReader::McapReader(const std::filesystem::path& path) : path_(path) {
   if (summary_start_ != 0 && (summary_start_ < data_start || summary_start_ > footer_offset_))
     fail("Footer: summary_start " + std::to_string(summary_start_) + " outside the file's records",
          footer_offset_);
-  if (summary_offset_start != 0 &&
-      (summary_offset_start < std::max(data_start, summary_start_) ||
-       summary_offset_start > footer_offset_)) {
+  if (summary_offset_start != 0 && (summary_offset_start < std::max(data_start, summary_start_) ||
+                                    summary_offset_start > footer_offset_)) {
     fail("Footer: summary_offset_start " + std::to_string(summary_offset_start) +
              " outside the summary",
          footer_offset_);
@@ -148,14 +148,15 @@ McapReader::McapReader(const std::filesystem::path& path) : path_(path) {
   if (summary_crc != 0) {
     // From the start of the summary (or of what follows the data section) through the Footer's
     // summary_offset_start field.
-    std::uint64_t from = summary_start_ != 0          ? summary_start_
+    std::uint64_t from = summary_start_ != 0         ? summary_start_
                          : summary_offset_start != 0 ? summary_offset_start
                                                      : footer_offset_;
     const std::uint64_t to = footer_offset_ + fmt::kRecordHeaderSize + 16;
     std::uint32_t crc = 0;
     std::vector<std::uint8_t> block(1u << 20);
     while (from < to) {
-      const std::size_t n = static_cast<std::size_t>(std::min<std::uint64_t>(block.size(), to - from));
+      const std::size_t n =
+          static_cast<std::size_t>(std::min<std::uint64_t>(block.size(), to - from));
       read_at(from, block.data(), n);
       crc = fmt::crc32(crc, block.data(), n);
       from += n;
@@ -174,12 +175,14 @@ McapReader::McapReader(const std::filesystem::path& path) : path_(path) {
   if (summary_offset_start != 0) {
     std::uint64_t at = summary_offset_start;
     while (at < footer_offset_) {
-      if (footer_offset_ - at < fmt::kRecordHeaderSize) fail("record header runs into the Footer", at);
+      if (footer_offset_ - at < fmt::kRecordHeaderSize)
+        fail("record header runs into the Footer", at);
       read_at(at, head, sizeof(head));
       const std::uint64_t length = fmt::load_u64(head + 1);
       if (head[0] != fmt::kSummaryOffset)
-        fail(std::string("a ") + fmt::opcode_name(head[0]) + " record in the summary offset section",
-             at);
+        fail(
+            std::string("a ") + fmt::opcode_name(head[0]) + " record in the summary offset section",
+            at);
       if (length < 17 || length > footer_offset_ - at - fmt::kRecordHeaderSize)
         fail("Summary Offset record of " + std::to_string(length) + " bytes", at);
       std::uint8_t body[17];
@@ -189,7 +192,8 @@ McapReader::McapReader(const std::filesystem::path& path) : path_(path) {
       const std::uint64_t group_start = so.u64(), group_length = so.u64();
       std::uint8_t first = 0;
       if (group_start < summary_start_ || group_start + group_length > summary_offset_start ||
-          group_length < fmt::kRecordHeaderSize || (read_at(group_start, &first, 1), first) != group_opcode) {
+          group_length < fmt::kRecordHeaderSize ||
+          (read_at(group_start, &first, 1), first) != group_opcode) {
         fail(std::string("Summary Offset for the ") + fmt::opcode_name(group_opcode) +
                  " group points at bytes " + std::to_string(group_start) + "+" +
                  std::to_string(group_length) + ", which do not start such a group",
@@ -287,7 +291,8 @@ void McapReader::read_summary(std::uint64_t summary_start, std::uint64_t summary
           break;  // this reader does not use attachments or metadata
         default:
           if (opcode < 0x10)
-            fail(std::string("a ") + fmt::opcode_name(opcode) + " record in the summary section", at);
+            fail(std::string("a ") + fmt::opcode_name(opcode) + " record in the summary section",
+                 at);
           break;  // a future or private record: skipped
       }
     } catch (const fmt::ShortRecord& e) {
@@ -390,8 +395,8 @@ void McapReader::scan(const std::function<bool(const McapMessageView&)>& on_mess
       }
       if (recorded != 0) {
         if (recorded != crc)
-          fail("data section CRC mismatch (Data End says " + hex32(recorded) +
-                   ", the bytes give " + hex32(crc) + "): the data section is corrupt",
+          fail("data section CRC mismatch (Data End says " + hex32(recorded) + ", the bytes give " +
+                   hex32(crc) + "): the data section is corrupt",
                at);
         if (check != nullptr) check->result.data_crc_checked = true;
       }
@@ -429,8 +434,8 @@ void McapReader::scan(const std::function<bool(const McapMessageView&)>& on_mess
           found.compression = in.string("compression");
           const std::uint64_t records_size = in.u64();
           if (records_size != in.remaining())
-            fail("Chunk records field says " + std::to_string(records_size) + " bytes, the record holds " +
-                     std::to_string(in.remaining()),
+            fail("Chunk records field says " + std::to_string(records_size) +
+                     " bytes, the record holds " + std::to_string(in.remaining()),
                  at);
           found.compressed_size = records_size;
           const std::uint8_t* stored = in.bytes(records_size, "chunk records");
@@ -442,11 +447,12 @@ void McapReader::scan(const std::function<bool(const McapMessageView&)>& on_mess
           if (found.compression == "zstd") {
             if (dctx == nullptr) dctx = ZSTD_createDCtx();
             records.resize(found.uncompressed_size);
-            const std::size_t n = ZSTD_decompressDCtx(dctx, records.data(), records.size(), stored,
-                                                      records_size);
+            const std::size_t n =
+                ZSTD_decompressDCtx(dctx, records.data(), records.size(), stored, records_size);
             if (ZSTD_isError(n))
-              fail(std::string("Chunk: zstd cannot decompress its records: ") + ZSTD_getErrorName(n),
-                   at);
+              fail(
+                  std::string("Chunk: zstd cannot decompress its records: ") + ZSTD_getErrorName(n),
+                  at);
             if (n != found.uncompressed_size)
               fail("Chunk: decompressed " + std::to_string(n) + " bytes, the chunk says " +
                        std::to_string(found.uncompressed_size),
@@ -517,8 +523,7 @@ void McapReader::scan(const std::function<bool(const McapMessageView&)>& on_mess
         }
         case fmt::kMessageIndex: {
           if (check == nullptr) break;
-          if (!was_after_chunk)
-            fail("a Message Index that does not follow a Chunk", at);
+          if (!was_after_chunk) fail("a Message Index that does not follow a Chunk", at);
           const std::uint16_t channel = in.u16();
           const std::uint32_t bytes = in.u32();
           if (bytes % 16 != 0 || bytes != in.remaining())
@@ -555,8 +560,7 @@ void McapReader::scan(const std::function<bool(const McapMessageView&)>& on_mess
           if (check != nullptr) ++check->counted.metadata_count;
           break;
         default:
-          if (opcode < 0x10)
-            fail(std::string("a ") + name + " record in the data section", at);
+          if (opcode < 0x10) fail(std::string("a ") + name + " record in the data section", at);
           break;  // a future or private record: skipped
       }
     } catch (const fmt::ShortRecord& e) {
@@ -607,9 +611,8 @@ McapValidation McapReader::validate() {
       const McapChunkIndex& a = chunk_indexes_[i];
       const McapChunkIndex& b = check.chunks[i];
       const bool indexes_match =
-          a.message_index_offsets.empty() ||
-          (a.message_index_offsets == b.message_index_offsets &&
-           a.message_index_length == b.message_index_length);
+          a.message_index_offsets.empty() || (a.message_index_offsets == b.message_index_offsets &&
+                                              a.message_index_length == b.message_index_length);
       if (a.chunk_start_offset != b.chunk_start_offset || a.chunk_length != b.chunk_length ||
           a.message_start_time != b.message_start_time ||
           a.message_end_time != b.message_end_time || a.compression != b.compression ||

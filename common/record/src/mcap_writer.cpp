@@ -110,8 +110,8 @@ std::uint16_t McapWriter::add_channel(std::uint16_t schema_id, const std::string
                                       const std::string& message_encoding,
                                       const std::map<std::string, std::string>& metadata) {
   if (closed_) fail("add_channel after close");
-  if (schema_id > schemas_.size()) fail("channel '" + topic + "': unknown schema id " +
-                                        std::to_string(schema_id));
+  if (schema_id > schemas_.size())
+    fail("channel '" + topic + "': unknown schema id " + std::to_string(schema_id));
   if (channels_.size() >= 0xFFFF) fail("too many channels");
   McapChannel channel{static_cast<std::uint16_t>(channels_.size()), schema_id, topic,
                       message_encoding, metadata};
@@ -123,8 +123,8 @@ std::uint16_t McapWriter::add_channel(std::uint16_t schema_id, const std::string
 void McapWriter::write(std::uint16_t channel_id, std::uint32_t sequence, std::uint64_t log_time,
                        std::uint64_t publish_time, const void* data, std::size_t size) {
   if (closed_) fail("write after close");
-  if (channel_id >= channels_.size()) fail("message on unknown channel " +
-                                           std::to_string(channel_id));
+  if (channel_id >= channels_.size())
+    fail("message on unknown channel " + std::to_string(channel_id));
   if (!chunk_.empty() && chunk_.size() + fmt::kRecordHeaderSize + fmt::kMessagePrefixSize + size >
                              options_.chunk_size) {
     flush_chunk();

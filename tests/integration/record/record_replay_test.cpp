@@ -41,6 +41,7 @@ struct Target {
   std::string label;
   float distance_m, x_m, y_m, z_m;
   std::uint32_t points;
+  tv::Band band;  // the rectified images it was measured in
 };
 using RangesBySeq = std::map<std::uint64_t, std::vector<Target>>;
 
@@ -49,7 +50,7 @@ void add(RangesBySeq& out, const tv::RangeArray& a) {
   targets.clear();
   for (const tv::TargetRange& r : a.targets())
     targets.push_back({r.target_id(), r.label().to_string(), r.distance_m(), r.x_m(), r.y_m(),
-                       r.z_m(), r.point_count()});
+                       r.z_m(), r.point_count(), r.band()});
   std::sort(targets.begin(), targets.end(),
             [](const Target& a_, const Target& b_) { return a_.id < b_.id; });
 }
@@ -130,8 +131,8 @@ TEST(RecordReplay, ReplayedCapturesGiveTheRangesOfTheLiveRun) {
         ranges, [](const tv::RangeArray& a) { return !a.targets().empty(); }, 120s))
         << supervisor.log();
     ChildProcess record({thermovis, "record", "--out", file.string(), "--topics",
-                         std::string(topics::kVisibleFrames) + "," + topics::kInfraredFrames +
-                             "," + topics::kRanges,
+                         std::string(topics::kVisibleFrames) + "," + topics::kInfraredFrames + "," +
+                             topics::kRanges,
                          "--seconds", "6", "--domain", domain_arg, "--profile",
                          tv::transport::kLoopbackProfile, "--json"},
                         dir / "record.log");
@@ -233,31 +234,38 @@ TEST(RecordReplay, ReplayedCapturesGiveTheRangesOfTheLiveRun) {
     stop(supervisor);
   }
 
-  // 4. Frame by frame, the same ranges.
-  std::size_t compared = 0, with_targets = 0;
+  // 4. Frame by frame, the same ranges. thermovis-match measures a target on the visible pair of
+  // its frame, or on the infrared pair when the visible one has too few points or has not
+  // arrived within its 40 ms wait (match_node.cpp, kFrameWait): that choice depends on timing,
+  // so a target is compared when both runs measured it in the same band; those must agree.
+  std::size_t compared = 0, band_differs = 0;
   for (const auto& [seq, targets] : live) {
     const auto it = replayed.find(seq);
     if (it == replayed.end()) continue;
     SCOPED_TRACE("frame " + std::to_string(seq));
-    ++compared;
-    if (!targets.empty()) ++with_targets;
-    ASSERT_EQ(it->second.size(), targets.size());
-    for (std::size_t i = 0; i < targets.size(); ++i) {
-      const Target& a = targets[i];
-      const Target& b = it->second[i];
-      EXPECT_EQ(a.id, b.id);
-      EXPECT_EQ(a.label, b.label);
-      EXPECT_EQ(a.points, b.points);
-      EXPECT_NEAR(a.distance_m, b.distance_m, 1e-4f);
-      EXPECT_NEAR(a.x_m, b.x_m, 1e-4f);
-      EXPECT_NEAR(a.y_m, b.y_m, 1e-4f);
-      EXPECT_NEAR(a.z_m, b.z_m, 1e-4f);
+    for (const Target& a : targets) {
+      const auto b = std::find_if(it->second.begin(), it->second.end(),
+                                  [&](const Target& t) { return t.id == a.id; });
+      ASSERT_NE(b, it->second.end()) << "target " << a.id << " not ranged in the replay";
+      if (a.band != b->band) {
+        ++band_differs;
+        continue;
+      }
+      ++compared;
+      EXPECT_EQ(a.label, b->label);
+      EXPECT_EQ(a.points, b->points);
+      EXPECT_NEAR(a.distance_m, b->distance_m, 1e-4f);
+      EXPECT_NEAR(a.x_m, b->x_m, 1e-4f);
+      EXPECT_NEAR(a.y_m, b->y_m, 1e-4f);
+      EXPECT_NEAR(a.z_m, b->z_m, 1e-4f);
     }
+    EXPECT_EQ(it->second.size(), targets.size());
   }
   std::cout << "live ranged " << live.size() << " frames, replay " << replayed.size()
-            << ", compared " << compared << " (" << with_targets << " with targets)\n";
-  RecordProperty("frames_compared", static_cast<int>(compared));
-  EXPECT_GE(with_targets, 10u) << "too few frames ranged in both runs to compare";
+            << "; targets compared " << compared << ", measured in another band " << band_differs
+            << "\n";
+  RecordProperty("targets_compared", static_cast<int>(compared));
+  EXPECT_GE(compared, 5u) << "too few targets ranged in both runs to compare";
   for (const auto& [seq, targets] : replayed)
     EXPECT_TRUE(captured.count(seq)) << "replay ranged frame " << seq << ", never recorded";
   std::filesystem::remove_all(dir);

@@ -11,7 +11,8 @@ using thermovis::record::flatten_idl;
 
 TEST(FlattenIdl, InlinesIncludesOnceAndDropsGuards) {
   const std::map<std::string, std::string> files{
-      {"a.idl", "#ifndef A\n#define A\n#include \"c.idl\"\n#include \"b.idl\"\nstruct A {};\n#endif\n"},
+      {"a.idl",
+       "#ifndef A\n#define A\n#include \"c.idl\"\n#include \"b.idl\"\nstruct A {};\n#endif\n"},
       {"b.idl", "  #include \"c.idl\"\nstruct B { C c; };\n"},
       {"c.idl", "#pragma once\nmodule m { struct C { long x; }; };\n"}};
   const std::string text = flatten_idl("a.idl", [&](const std::string& f) { return files.at(f); });

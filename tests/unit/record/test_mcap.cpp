@@ -47,7 +47,8 @@ Bytes read_file(const fs::path& path) {
 
 void write_file(const fs::path& path, const Bytes& bytes) {
   std::ofstream(path, std::ios::binary)
-      .write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+      .write(reinterpret_cast<const char*>(bytes.data()),
+             static_cast<std::streamsize>(bytes.size()));
 }
 
 std::uint64_t u64_at(const Bytes& b, std::size_t at) {
@@ -64,8 +65,8 @@ std::uint32_t u32_at(const Bytes& b, std::size_t at) {
 std::vector<Written> read_all(McapReader& reader) {
   std::vector<Written> out;
   reader.read_messages([&](const McapMessageView& m) {
-    out.push_back({m.channel_id, m.sequence, m.log_time, m.publish_time,
-                   Bytes(m.data, m.data + m.size)});
+    out.push_back(
+        {m.channel_id, m.sequence, m.log_time, m.publish_time, Bytes(m.data, m.data + m.size)});
     return true;
   });
   return out;
@@ -106,7 +107,8 @@ class Mcap : public ::testing::TestWithParam<McapCompression> {
     for (std::uint32_t i = 0; i < 40; ++i) {
       t += 1'000'000 + i;
       written.push_back({ranges, i, t, t - 500, random_bytes(40 + i * 7, i)});
-      if (i % 10 == 3) written.push_back({frames, i / 10, t + 1, t, random_bytes(150'000, 100 + i)});
+      if (i % 10 == 3)
+        written.push_back({frames, i / 10, t + 1, t, random_bytes(150'000, 100 + i)});
       if (i == 17) written.push_back({raw, 0, t + 2, t + 2, {}});
     }
     for (const Written& w : written)
@@ -257,7 +259,8 @@ TEST_P(Mcap, CorruptBytesAreCaughtByTheCrcs) {
 
   // A record length pointing past the end of the data section.
   bad = good;
-  for (int i = 0; i < 8; ++i) bad[chunk.chunk_start_offset + 1 + static_cast<std::size_t>(i)] = 0x7F;
+  for (int i = 0; i < 8; ++i)
+    bad[chunk.chunk_start_offset + 1 + static_cast<std::size_t>(i)] = 0x7F;
   const fs::path bad_length = dir_ / "bad_length.mcap";
   write_file(bad_length, bad);
   McapReader length_reader(bad_length);
