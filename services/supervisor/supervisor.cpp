@@ -6,6 +6,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "thermovis/node/frame_codec.hpp"
+#include "thermovis/node/health.hpp"
 #include "thermovis/runtime/rig_io.hpp"
 #include "thermovis/transport/qos.hpp"
 #include "thermovis/transport/shared_memory.hpp"
@@ -89,6 +91,14 @@ void Supervisor::take_timing() {
   auto samples = timing_in_.take();
   for (std::size_t i = 0; i < samples.size(); ++i) {
     const FrameTiming& t = samples[i];
+    // A sample with impossible stamps would skew p50/p99: counted as bad input, not measured.
+    try {
+      node::check_timing(t);
+    } catch (const node::FrameError& e) {
+      node::log_bad_input("thermovis-supervisor", ++bad_timing_,
+                          std::string(transport::topics::kTiming) + ": " + e.what());
+      continue;
+    }
     const double latency_ms = static_cast<double>(t.output_time_ns() - t.capture_time_ns()) / 1e6;
     latencies_ms_.push_back(latency_ms);
     if (latencies_ms_.size() == 1) first_seq_ = t.frame_seq();
@@ -147,9 +157,10 @@ void Supervisor::reset_statistics() {
   stage_ms_.clear();
   late_.clear();
   first_seq_ = last_seq_ = 0;
-  base_bad_inputs_ = base_deadline_misses_ = 0;
+  base_bad_inputs_ = base_deadline_misses_ = base_bad_timing_ = 0;
   const LatencySummary now = summary();
   base_bad_inputs_ = now.bad_inputs;
+  base_bad_timing_ = now.bad_timing;
   base_deadline_misses_ = now.deadline_misses;
   for (const auto& status : group_.status()) base_restarts_[status.name] = status.restarts;
 }
@@ -167,6 +178,8 @@ LatencySummary Supervisor::summary() const {
   if (s.frames > 0)
     s.dropped = (last_seq_ - first_seq_ + 1) -
                 std::min<std::uint64_t>(s.frames, last_seq_ - first_seq_ + 1);
+  s.bad_timing = bad_timing_;
+  s.bad_inputs = bad_timing_;
   for (const auto& [key, h] : health_) {
     s.bad_inputs += h.errors();
     for (const auto& topic : h.topics()) {
@@ -182,6 +195,7 @@ LatencySummary Supervisor::summary() const {
   }
   // Counters since the last reset (a restarted service starts its counters again at zero).
   s.bad_inputs -= std::min(s.bad_inputs, base_bad_inputs_);
+  s.bad_timing -= std::min(s.bad_timing, base_bad_timing_);
   s.deadline_misses -= std::min(s.deadline_misses, base_deadline_misses_);
   for (const auto& [stage, values] : stage_ms_) {
     s.stages.push_back({stage_name(stage), percentile(values, 50), percentile(values, 99),

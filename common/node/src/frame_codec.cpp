@@ -206,6 +206,46 @@ void check_stamps(const PipelineStamps& stamps, std::int64_t capture_ns, const s
   }
 }
 
+void check_timing(const FrameTiming& timing) {
+  const std::string what = "timing of frame " + std::to_string(timing.frame_seq());
+  check_stamps(timing.stamps(), timing.capture_time_ns(), what);
+  const std::int64_t capture_ns = timing.capture_time_ns();
+  const std::int64_t output_ns = timing.output_time_ns();
+  if (output_ns < capture_ns) {
+    // As unsigned: the difference of two arbitrary stamps may not fit an int64.
+    throw FrameError(what + ": output " +
+                     std::to_string((static_cast<std::uint64_t>(capture_ns) -
+                                     static_cast<std::uint64_t>(output_ns)) /
+                                    1000000) +
+                     " ms before the capture");
+  }
+  const std::uint64_t latency_ns =
+      static_cast<std::uint64_t>(output_ns) - static_cast<std::uint64_t>(capture_ns);
+  if (latency_ns > static_cast<std::uint64_t>(kMaxFrameLatencyNs)) {
+    throw FrameError(what + ": latency " + std::to_string(latency_ns / 1000000) + " ms, over the " +
+                     std::to_string(kMaxFrameLatencyNs / 1000000) +
+                     " ms any frame can take (wrong capture or output time)");
+  }
+  for (std::size_t i = 0; i < timing.stamps().stamps().size(); ++i) {
+    const StageStamp& stamp = timing.stamps().stamps()[i];
+    if (stamp.stage() == STAGE_NONE) break;
+    const std::uint64_t late_ns =
+        stamp.end_ns() > output_ns
+            ? static_cast<std::uint64_t>(stamp.end_ns()) - static_cast<std::uint64_t>(output_ns)
+            : 0;
+    if (late_ns > static_cast<std::uint64_t>(kStampSkewNs)) {
+      throw FrameError(what + ": stage " + std::to_string(stamp.stage()) + " ends " +
+                       std::to_string(late_ns / 1000000) + " ms after the output");
+    }
+    const std::int64_t duration_ns = static_cast<std::int64_t>(stamp.duration_us()) * 1000;
+    if (duration_ns > static_cast<std::int64_t>(latency_ns) + kStampSkewNs) {
+      throw FrameError(what + ": stage " + std::to_string(stamp.stage()) + " took " +
+                       std::to_string(duration_ns / 1000000) + " ms, longer than the frame's " +
+                       std::to_string(latency_ns / 1000000) + " ms latency");
+    }
+  }
+}
+
 FrameOrder::Verdict FrameOrder::check(std::uint64_t seq, std::int64_t capture_ns) {
   Verdict verdict = Verdict::next;
   if (any_ && seq == last_seq_ && capture_ns == last_capture_ns_) {

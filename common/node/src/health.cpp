@@ -20,6 +20,12 @@ std::string clip(const std::string& text, std::size_t max) {
 
 }  // namespace
 
+void log_bad_input(const std::string& service, std::uint64_t count, const std::string& message) {
+  // The log names every problem; a flood of bad frames is thinned to every 100th.
+  if (count <= kLoggedErrors || count % 100 == 0)
+    std::cerr << service << ": bad input #" << count << ": " << message << std::endl;
+}
+
 HealthReporter::HealthReporter(transport::Participant& participant, std::string service,
                                CountersSource counters, std::chrono::milliseconds period)
     : writer_(participant, transport::topics::kHealth, transport::state_topic_qos()),
@@ -59,10 +65,7 @@ void HealthReporter::bad_input(const std::string& message) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     ++errors_;
-    // The service's log names every problem; a flood of bad frames is thinned to every 100th.
-    if (errors_ <= kLoggedErrors || errors_ % 100 == 0) {
-      std::cerr << service_ << ": bad input #" << errors_ << ": " << message << std::endl;
-    }
+    log_bad_input(service_, errors_, message);
     good_since_error_ = 0;
     message_ = message;
     if (state_ != HEALTH_FAILED && state_ != HEALTH_STOPPING) state_ = HEALTH_DEGRADED;

@@ -16,6 +16,7 @@
 #include <thread>
 
 #include "pipeline_harness.hpp"
+#include "supervisor.hpp"
 #include "textured_pair.hpp"
 #include "thermovis/node/frame_codec.hpp"
 #include "thermovis/node/pipeline_grid.hpp"
@@ -23,6 +24,7 @@
 #include "thermovis/runtime/rig_io.hpp"
 #include "thermovis/test/child_process.hpp"
 #include "thermovis/test/data.hpp"
+#include "thermovis/transport/clock.hpp"
 #include "thermovis/transport/qos.hpp"
 #include "thermovis/transport/reader.hpp"
 #include "thermovis/transport/topics.hpp"
@@ -488,6 +490,73 @@ TEST(Corrupt, MatchNamesBadFramesAndDetectionsAndServesTheNextGoodOnes) {
   for (const tv::PointMatch& p : answer->targets()[0].points())
     EXPECT_NEAR(p.left_x() - p.right_x(), shift, 0.2);
   match.stop_and_check_log({"unknown pixel format 9", "non-finite field"});
+}
+
+// The supervisor's latency statistics come from thermovis/timing. A sample whose output is
+// before its capture, whose latency is an hour, whose stamps are out of order or whose stage took
+// longer than the frame is counted as a bad input and kept out of p50/p99, the late frames and
+// the per-stage figures; the good samples around it are measured.
+TEST(Corrupt, SupervisorCountsBadTimingAndKeepsItOutOfTheLatencies) {
+  const int domain = tv::test::private_domain();
+  const auto dir = tv::test::temp_dir("corrupt_timing");
+  auto supervised = tv::test::loopback_participant(domain, "supervisor");
+  tv::supervisor::SupervisorConfig config;
+  config.log_dir = dir / "logs";
+  // No services: only the supervisor's readers are under test.
+  tv::supervisor::Supervisor supervisor(*supervised, tv::process::Manifest{"timing", {}}, config);
+  auto participant = tv::test::loopback_participant(domain, "corrupt-test");
+  tv::transport::Writer<tv::FrameTiming> timing(*participant, topics::kTiming,
+                                                tv::transport::event_topic_qos(64));
+  ASSERT_TRUE(timing.wait_for_readers(1, 20000ms));
+
+  // Frame `seq` captured at c + seq s, through all five stages of 2 ms each, out after
+  // `latency_ms`.
+  const std::int64_t c = tv::transport::now_ns();
+  const auto sample = [c](std::uint64_t seq, std::int64_t latency_ms) {
+    tv::FrameTiming t;
+    const std::int64_t capture = c + static_cast<std::int64_t>(seq) * kSecond;
+    t.frame_seq(seq);
+    t.capture_time_ns(capture);
+    t.output_time_ns(capture + latency_ms * 1'000'000);
+    const tv::Stage stages[] = {tv::STAGE_BRIDGE, tv::STAGE_RECTIFY_FUSE, tv::STAGE_DETECT,
+                                tv::STAGE_MATCH, tv::STAGE_RANGE};
+    for (std::size_t i = 0; i < 5; ++i) {
+      t.stamps().stamps()[i].stage(stages[i]);
+      t.stamps().stamps()[i].duration_us(2000);
+      t.stamps().stamps()[i].end_ns(capture + static_cast<std::int64_t>(i + 1) * 2'000'000);
+    }
+    return t;
+  };
+  std::uint64_t seq = 0;
+  for (const std::int64_t latency_ms : {10, 12, 14}) timing.write(sample(++seq, latency_ms));
+  timing.write(sample(++seq, -5));         // output before capture
+  timing.write(sample(++seq, 3'600'000));  // an hour
+  auto disordered = sample(++seq, 25);     // would be a late frame
+  disordered.stamps().stamps()[1].stage(tv::STAGE_MATCH);
+  timing.write(disordered);
+  auto long_stage = sample(++seq, 16);  // would dominate detect's figures
+  long_stage.stamps().stamps()[2].duration_us(5'000'000);
+  timing.write(long_stage);
+  for (const std::int64_t latency_ms : {16, 18}) timing.write(sample(++seq, latency_ms));
+
+  tv::supervisor::LatencySummary s;
+  for (const auto until = std::chrono::steady_clock::now() + 20s;
+       std::chrono::steady_clock::now() < until && s.frames + s.bad_timing < seq;) {
+    supervisor.step();
+    s = supervisor.summary();
+    std::this_thread::sleep_for(10ms);
+  }
+  EXPECT_EQ(s.bad_timing, 4u);
+  EXPECT_EQ(s.bad_inputs, 4u);
+  ASSERT_EQ(s.frames, 5u);
+  EXPECT_DOUBLE_EQ(s.p50_ms, 14.0);
+  EXPECT_DOUBLE_EQ(s.max_ms, 18.0);
+  EXPECT_DOUBLE_EQ(s.p99_ms, 18.0);
+  EXPECT_EQ(s.over_deadline, 0u);
+  EXPECT_TRUE(supervisor.late_frames().empty());
+  ASSERT_EQ(s.stages.size(), 5u);
+  for (const auto& stage : s.stages) EXPECT_DOUBLE_EQ(stage.max_ms, 2.0) << stage.stage;
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace

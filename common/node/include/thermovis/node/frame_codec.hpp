@@ -8,6 +8,7 @@
 #include <string>
 
 #include "thermovis/frames.h"
+#include "thermovis/perception.h"
 
 namespace thermovis::node {
 
@@ -46,6 +47,15 @@ cv::Mat prepare(GridStereoFrame& frame, Eye eye, cv::Size size, int cv_type);
 // by their clock offsets, which the lab keeps far under a second).
 inline constexpr std::int64_t kStampSkewNs = 1'000'000'000;
 void check_stamps(const PipelineStamps& stamps, std::int64_t capture_ns, const std::string& what);
+
+// A frame's capture-to-output latency above this is no latency but a wrong stamp: the frame
+// topics keep the last two frames, so no frame waits seconds anywhere in the pipeline.
+inline constexpr std::int64_t kMaxFrameLatencyNs = 10'000'000'000;
+// A FrameTiming sample (thermovis/timing) fit for latency statistics: FrameError naming the
+// frame when its stamps fail check_stamps, its output is before its capture or more than
+// kStampSkewNs before the end of its last stage, its latency exceeds kMaxFrameLatencyNs, or a
+// stage lasted longer than the whole latency (plus kStampSkewNs).
+void check_timing(const FrameTiming& timing);
 
 // The order of the frames a reader takes from one topic. A writer's frames come in seq order; a
 // seq at or below the last one is the same capture again (repeated), an older capture arriving

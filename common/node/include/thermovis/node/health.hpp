@@ -3,6 +3,7 @@
 // state, frames processed, bad inputs and the last error, and the deadline counters of every
 // topic it reads or writes. Published on every state change and at most once per period.
 #include <chrono>
+#include <cstdint>
 #include <functional>
 #include <mutex>
 #include <string>
@@ -14,6 +15,10 @@
 #include "thermovis/transport/writer.hpp"
 
 namespace thermovis::node {
+
+// Writes "SERVICE: bad input #COUNT: MESSAGE" to stderr for the first bad inputs one by one,
+// then every 100th (a flood of bad input is thinned). `count` counts this one.
+void log_bad_input(const std::string& service, std::uint64_t count, const std::string& message);
 
 class HealthReporter {
  public:
