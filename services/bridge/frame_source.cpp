@@ -1,7 +1,13 @@
 #include "frame_source.hpp"
 
 #include <algorithm>
+#include <atomic>
+#include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <functional>
+#include <iomanip>
+#include <iostream>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
@@ -19,29 +25,90 @@
 namespace thermovis::bridge {
 namespace {
 
+// FNV-1a of a file's bytes, as hex; "" when it cannot be read.
+std::string file_digest(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return "";
+  std::uint64_t h = 0xCBF29CE484222325ULL;
+  char buffer[1 << 16];
+  while (in.read(buffer, sizeof buffer) || in.gcount() > 0) {
+    for (std::streamsize i = 0; i < in.gcount(); ++i)
+      h = (h ^ static_cast<unsigned char>(buffer[i])) * 0x100000001B3ULL;
+  }
+  std::ostringstream hex;
+  hex << std::hex << std::setw(16) << std::setfill('0') << h;
+  return hex.str();
+}
+
+// The folder of the simulator's static scene caches: --sim-cache, else $XDG_CACHE_HOME/thermovis,
+// else ~/.cache/thermovis, else /tmp/thermovis-cache.
+std::filesystem::path cache_folder(const std::string& option) {
+  if (option != "auto") return option;
+  if (const char* xdg = std::getenv("XDG_CACHE_HOME"); xdg != nullptr && *xdg != '\0')
+    return std::filesystem::path(xdg) / "thermovis";
+  if (const char* home = std::getenv("HOME"); home != nullptr && *home != '\0')
+    return std::filesystem::path(home) / ".cache/thermovis";
+  return "/tmp/thermovis-cache";
+}
+
+// The static scene cache of this executable, rig and scene (sim::StaticCache): the key names
+// all three by digest, so a rebuilt simulator or an edited rig or scene never reads an old file.
+// Empty (no cache) for --sim-cache none or when a file cannot be read.
+sim::StaticCache static_cache(const std::string& option, const std::filesystem::path& rig_file,
+                              const std::filesystem::path& scene_file) {
+  if (option == "none") return {};
+  const std::string exe = file_digest("/proc/self/exe");
+  const std::string rig = file_digest(rig_file);
+  const std::string scene = file_digest(scene_file);
+  if (exe.empty() || rig.empty() || scene.empty()) return {};
+  const std::string key = "exe " + exe + " rig " + rig + " scene " + scene;
+  return {cache_folder(option) / ("sim-static-" + exe + rig + scene + ".bin"), key};
+}
+
+// Keeps the `keep` newest static scene caches of `folder` (each ~160 MB): older builds', rigs'
+// and scenes' go.
+void prune_caches(const std::filesystem::path& folder, std::size_t keep) {
+  namespace fs = std::filesystem;
+  std::error_code error;
+  std::vector<std::pair<fs::file_time_type, fs::path>> caches;
+  for (auto it = fs::directory_iterator(folder, error); !error && it != fs::directory_iterator();
+       it.increment(error)) {
+    const std::string name = it->path().filename().string();
+    if (name.rfind("sim-static-", 0) != 0 || it->path().extension() != ".bin") continue;
+    caches.emplace_back(it->last_write_time(error), it->path());
+  }
+  if (caches.size() <= keep) return;
+  std::sort(caches.begin(), caches.end(), std::greater<>());
+  for (std::size_t i = keep; i < caches.size(); ++i) fs::remove(caches[i].second, error);
+}
+
 // The simulated rig. Live, every capture is rendered (about 20 ms of CPU for the street scene);
-// with `prerender` N > 0, N captures are rendered at start and each fill is a copy of capture
-// index % N: cheap, but moving targets repeat every N captures.
+// with `prerender` N > 0, capture k shows frame k % N: N frames are rendered once, by a thread
+// in the background, and each fill is a copy of frame k % N when it is ready, else a live
+// render of it (the same bytes), so the first capture goes out as soon as the rig is set up.
+// Moving targets repeat every N captures. The static scene comes from the cache
+// (sim::StaticCache) when an earlier run left one, so a restarted bridge starts in a fraction
+// of a second instead of seconds.
 class SimSource final : public FrameSource {
  public:
-  SimSource(const camera::Rig& rig, const std::string& scene_path, std::uint64_t seed,
-            std::int64_t prerender)
-      : sim_(rig,
-             runtime::load_scene(scene_path.empty() ? runtime::shipped_file("scenes/paper.yaml")
-                                                    : std::filesystem::path(scene_path)),
-             seed) {
-    if (prerender < 0) {
-      throw std::runtime_error("sim source: --prerender must be 0 (render live) or a count, got " +
-                               std::to_string(prerender));
-    }
-    cache_.resize(static_cast<std::size_t>(prerender));
-    for (std::size_t i = 0; i < cache_.size(); ++i) {
-      cache_[i] = sim_.allocate();
-      sim_.render(static_cast<std::int64_t>(i), cache_[i]);
-    }
+  SimSource(const camera::Rig& rig, const SourceOptions& options)
+      : sim_(make_sim(rig, options)),
+        cache_(static_cast<std::size_t>(std::max<std::int64_t>(options.prerender, 0))),
+        ready_(cache_.size()) {
+    if (!sim_.static_setup().note.empty())
+      std::cerr << "sim source: static scene traced (" << sim_.static_setup().note << ")\n";
+    if (!cache_.empty()) prerender_ = std::thread([this] { prerender(); });
   }
+  ~SimSource() override {
+    stop_ = true;
+    if (prerender_.joinable()) prerender_.join();
+  }
+  SimSource(const SimSource&) = delete;
+  SimSource& operator=(const SimSource&) = delete;
+
   std::string name() const override {
-    return cache_.empty() ? "sim" : "sim (" + std::to_string(cache_.size()) + " prerendered)";
+    return std::string("sim") + (sim_.static_setup().loaded ? ", static scene from cache" : "") +
+           (cache_.empty() ? "" : ", " + std::to_string(cache_.size()) + " prerendered");
   }
   cv::Size visible_size() const override {
     return sim_.camera(sim::Slot::visible_left).model->image_size();
@@ -54,14 +121,47 @@ class SimSource final : public FrameSource {
       sim_.render(index, out);
       return true;
     }
-    const auto& cached = cache_[static_cast<std::size_t>(index) % cache_.size()];
-    for (std::size_t i = 0; i < out.images.size(); ++i) cached.images[i].copyTo(out.images[i]);
+    const auto k = static_cast<std::size_t>(index % static_cast<std::int64_t>(cache_.size()));
+    if (!ready_[k].load(std::memory_order_acquire)) {
+      sim_.render(static_cast<std::int64_t>(k), out);
+      return true;
+    }
+    for (std::size_t i = 0; i < out.images.size(); ++i) cache_[k].images[i].copyTo(out.images[i]);
     return true;
   }
 
  private:
+  static sim::SimulatedRig make_sim(const camera::Rig& rig, const SourceOptions& options) {
+    const std::filesystem::path scene = options.scene.empty()
+                                            ? runtime::shipped_file("scenes/paper.yaml")
+                                            : std::filesystem::path(options.scene);
+    if (options.prerender < 0) {
+      throw std::runtime_error("sim source: --prerender must be 0 (render live) or a count, got " +
+                               std::to_string(options.prerender));
+    }
+    const sim::StaticCache cache = options.rig_file.empty()
+                                       ? sim::StaticCache{}
+                                       : static_cache(options.sim_cache, options.rig_file, scene);
+    sim::SimulatedRig out(rig, runtime::load_scene(scene), options.seed, {}, cache);
+    if (!cache.file.empty() && !out.static_setup().loaded)
+      prune_caches(cache.file.parent_path(), 3);
+    return out;
+  }
+
+  // Renders frames 0..N-1 into the cache, each published to fill() once complete.
+  void prerender() {
+    for (std::size_t k = 0; k < cache_.size() && !stop_; ++k) {
+      cache_[k] = sim_.allocate();
+      sim_.render(static_cast<std::int64_t>(k), cache_[k]);
+      ready_[k].store(true, std::memory_order_release);
+    }
+  }
+
   sim::SimulatedRig sim_;
   std::vector<sim::FrameSet> cache_;
+  std::vector<std::atomic<bool>> ready_;  // cache_[k] rendered (written once, then read only)
+  std::atomic<bool> stop_{false};
+  std::thread prerender_;
 };
 
 // Playback of a folder written by `thermovis scene render --out DIR`: one subfolder per frame
@@ -317,8 +417,7 @@ class V4l2Source final : public FrameSource {
 }  // namespace
 
 std::unique_ptr<FrameSource> make_source(const SourceOptions& options, const camera::Rig& rig) {
-  if (options.kind == "sim")
-    return std::make_unique<SimSource>(rig, options.scene, options.seed, options.prerender);
+  if (options.kind == "sim") return std::make_unique<SimSource>(rig, options);
   if (options.kind == "files")
     return std::make_unique<FilesSource>(rig, options.directory, options.loop, options.preload);
   if (options.kind == "v4l2") return std::make_unique<V4l2Source>(rig, options.devices);

@@ -4,6 +4,7 @@
 // (views of loaned DDS samples, so a frame is written once, in place).
 #include <chrono>
 #include <cstdint>
+#include <filesystem>
 #include <memory>
 #include <opencv2/core/types.hpp>
 #include <optional>
@@ -39,11 +40,16 @@ struct SourceOptions {
   std::string kind = "sim";  // sim | files | v4l2 | fpga-dma
   std::string scene;         // sim: scene YAML (default deploy/scenes/paper.yaml)
   std::uint64_t seed = 1;    // sim
-  // sim: render this many captures at start and cycle through them (0 = render every capture
-  // live). Each capture then costs a copy instead of a render, but moving targets repeat every
-  // `prerender` captures, and the captures are held in memory (about 15.6 MB each for the
-  // paper's rig).
+  // sim: cycle through this many captures (0 = render every capture live), rendered once in the
+  // background (until one is ready it is rendered live). Each capture then costs a copy instead
+  // of a render, but moving targets repeat every `prerender` captures, and the captures are held
+  // in memory (about 15.6 MB each for the paper's rig).
   std::int64_t prerender = 0;
+  // sim: the rig file the rig was loaded from (keys the static scene cache; empty: no cache)
+  // and the cache folder: "auto" ($XDG_CACHE_HOME/thermovis or ~/.cache/thermovis), a folder,
+  // or "none".
+  std::filesystem::path rig_file;
+  std::string sim_cache = "auto";
   std::string directory;  // files: a folder written by `thermovis scene render --out`
   bool loop = true;       // files: start again at the end
   bool preload = false;   // files: decode every frame at start (memory: ~15.6 MB per frame)

@@ -2,10 +2,19 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <fstream>
 #include <limits>
+#include <memory>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
+#include <system_error>
+
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include "world.hpp"
 
@@ -118,6 +127,141 @@ struct CameraCache {
   cv::Mat fpn_offset, fpn_gain;  // CV_32FC1, infrared
 };
 
+// The traced static scene of one camera, as the cache file keeps it.
+struct StaticLayers {
+  cv::Mat rays;    // CV_32FC3
+  cv::Mat depth;   // CV_32FC1
+  cv::Mat id;      // CV_16UC1
+  cv::Mat linear;  // CV_32FC3 (visible) or CV_32FC1 (infrared)
+  std::array<cv::Mat*, 4> all() { return {&rays, &depth, &id, &linear}; }
+};
+using StaticScene = std::array<StaticLayers, kSlotCount>;
+
+// Cache file: a header of kCacheHeader bytes (magic, key length (u64) and key, per camera its
+// width and height and the OpenCV type of each layer (i32)), then the layers' pixels (continuous
+// rows), each starting on a kCacheAlign boundary. Read by mapping it: the pages of the file are
+// the images, and only the pixels used are ever read.
+constexpr char kCacheMagic[8] = {'T', 'V', 'S', 'T', 'A', 'T', 'I', '2'};
+constexpr std::size_t kCacheHeader = 8192;
+constexpr std::size_t kCacheAlign = 64;
+constexpr std::size_t kMaxKey = 4096;
+
+int layer_type(int slot, int layer) {
+  constexpr int kTypes[4] = {CV_32FC3, CV_32FC1, CV_16UC1, CV_32FC3};
+  return layer == 3 && slot >= 2 ? CV_32FC1 : kTypes[layer];
+}
+std::size_t aligned(std::size_t n) { return (n + kCacheAlign - 1) / kCacheAlign * kCacheAlign; }
+
+// Writes `scene` to `file` (through a temporary file renamed over it); "" or why not.
+std::string write_static(const std::filesystem::path& file, const std::string& key,
+                         StaticScene& scene) {
+  if (key.size() > kMaxKey) return "cache key over " + std::to_string(kMaxKey) + " bytes";
+  std::error_code error;
+  if (file.has_parent_path()) std::filesystem::create_directories(file.parent_path(), error);
+  const std::filesystem::path temporary =
+      file.string() + ".tmp." + std::to_string(static_cast<long>(::getpid()));
+  {
+    std::string header(kCacheHeader, '\0');
+    std::size_t at = 0;
+    const auto put = [&header, &at](const void* data, std::size_t n) {
+      std::memcpy(header.data() + at, data, n);
+      at += n;
+    };
+    put(kCacheMagic, sizeof kCacheMagic);
+    const std::uint64_t key_size = key.size();
+    put(&key_size, sizeof key_size);
+    put(key.data(), key.size());
+    for (StaticLayers& layers : scene) {
+      const std::int32_t size[2] = {layers.depth.cols, layers.depth.rows};
+      put(size, sizeof size);
+      for (const cv::Mat* m : layers.all()) {
+        const std::int32_t type = m->type();
+        put(&type, sizeof type);
+      }
+    }
+    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
+    if (!out) return "cannot write " + temporary.string();
+    out.write(header.data(), static_cast<std::streamsize>(header.size()));
+    const char padding[kCacheAlign] = {};
+    for (StaticLayers& layers : scene) {
+      for (const cv::Mat* m : layers.all()) {
+        const std::size_t bytes = m->total() * m->elemSize();
+        out.write(m->ptr<char>(), static_cast<std::streamsize>(bytes));
+        out.write(padding, static_cast<std::streamsize>(aligned(bytes) - bytes));
+      }
+    }
+    if (!out.flush()) {
+      out.close();
+      std::filesystem::remove(temporary, error);
+      return "cannot write " + temporary.string() + " (disk full?)";
+    }
+  }
+  std::filesystem::rename(temporary, file, error);
+  if (error) {
+    std::filesystem::remove(temporary, error);
+    return "cannot rename " + temporary.string() + " to " + file.string();
+  }
+  return "";
+}
+
+// Maps `file` and points `scene` into it when it holds `key` and layers of `sizes`; "" or why
+// not. `mapping` keeps the mapping for as long as the images are used.
+std::string read_static(const std::filesystem::path& file, const std::string& key,
+                        const std::array<cv::Size, kSlotCount>& sizes, StaticScene& scene,
+                        std::shared_ptr<void>& mapping) {
+  const int fd = ::open(file.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return "no cache file " + file.string() + " yet";
+  struct stat st {};
+  const bool stated = ::fstat(fd, &st) == 0;
+  const auto length = stated ? static_cast<std::size_t>(st.st_size) : 0;
+  // Private and writable: the images are only read, but nothing written could reach the file.
+  void* base = length >= kCacheHeader
+                   ? ::mmap(nullptr, length, PROT_READ | PROT_WRITE, MAP_PRIVATE, fd, 0)
+                   : MAP_FAILED;
+  ::close(fd);
+  const std::string what = "cache file " + file.string();
+  if (base == MAP_FAILED) return what + " is not a static scene cache (too short)";
+  mapping = std::shared_ptr<void>(base, [length](void* p) { ::munmap(p, length); });
+  const auto* bytes = static_cast<const std::uint8_t*>(base);
+  std::size_t at = 0;
+  const auto get = [bytes, &at](void* out, std::size_t n) {
+    std::memcpy(out, bytes + at, n);
+    at += n;
+  };
+  char magic[sizeof kCacheMagic];
+  std::uint64_t key_size = 0;
+  get(magic, sizeof magic);
+  get(&key_size, sizeof key_size);
+  if (std::memcmp(magic, kCacheMagic, sizeof magic) != 0 || key_size > kMaxKey)
+    return what + " is not a static scene cache";
+  if (key_size != key.size() || std::memcmp(bytes + at, key.data(), key.size()) != 0)
+    return what + " is for another rig, scene or build";
+  at += key.size();
+  std::size_t data = kCacheHeader;
+  for (int i = 0; i < kSlotCount; ++i) {
+    const cv::Size size = sizes[static_cast<std::size_t>(i)];
+    std::int32_t stored[2] = {0, 0};
+    get(stored, sizeof stored);
+    if (stored[0] != size.width || stored[1] != size.height)
+      return what + ": " + to_string(static_cast<Slot>(i)) + " is not the rig's size";
+    StaticLayers& layers = scene[static_cast<std::size_t>(i)];
+    for (int layer = 0; layer < 4; ++layer) {
+      std::int32_t type = -1;
+      get(&type, sizeof type);
+      if (type != layer_type(i, layer))
+        return what + ": " + to_string(static_cast<Slot>(i)) + " has a wrong layer type";
+      const std::size_t n =
+          static_cast<std::size_t>(size.area()) * static_cast<std::size_t>(CV_ELEM_SIZE(type));
+      if (data + n > length) return what + " is truncated";
+      *layers.all()[static_cast<std::size_t>(layer)] =
+          cv::Mat(size, type, static_cast<std::uint8_t*>(base) + data);
+      data += aligned(n);
+    }
+  }
+  if (data != length) return what + " is truncated or too long";
+  return "";
+}
+
 }  // namespace
 
 const char* to_string(Slot slot) {
@@ -150,6 +294,8 @@ struct SimulatedRig::Impl {
   int ir_sigma16 = 0;
   Eigen::Isometry3d T_visible_left_world = Eigen::Isometry3d::Identity();
   float sky_counts = 0.0f;
+  StaticSetup static_setup;
+  std::shared_ptr<void> static_mapping;  // the cache file the static layers point into
 
   Impl(camera::Rig r, Scene s, std::uint64_t sd, RenderOptions opt)
       : rig(std::move(r)),
@@ -268,21 +414,9 @@ struct SimulatedRig::Impl {
     return count > 0 ? sum * (1.0f / static_cast<float>(count)) : static_value;
   }
 
-  void build_camera(Slot slot, const camera::RigCamera& cam) {
-    CameraCache& c = cams[static_cast<int>(slot)];
-    c.camera = &cam;
-    c.visible = slot == Slot::visible_left || slot == Slot::visible_right;
-    c.size = cam.model->image_size();
-    c.channels = c.visible ? 3 : 1;
-    c.centre = cam.T_ref_cam.translation();
-    c.R_world_cam = cam.T_ref_cam.linear();
-    c.T_cam_world = cam.T_ref_cam.inverse();
-    {  // angle of one pixel at the image centre, for texture level of detail
-      Eigen::Vector3d a, b;
-      const Eigen::Vector2d mid(c.size.width / 2.0, c.size.height / 2.0);
-      if (cam.model->unproject(mid, a) && cam.model->unproject(mid + Eigen::Vector2d(1, 0), b))
-        c.pixel_angle_rad = std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0));
-    }
+  // Each pixel's ray, and the static scene along it: depth, surface id and linear value,
+  // supersampled at edges.
+  void trace_static_scene(CameraCache& c, const camera::RigCamera& cam) const {
     const int linear_type = c.visible ? CV_32FC3 : CV_32FC1;
     c.rays.create(c.size, CV_32FC3);
     c.static_depth.create(c.size, CV_32FC1);
@@ -319,6 +453,33 @@ struct SimulatedRig::Impl {
         }
       }
     });
+  }
+
+  // The camera's rays and static images: the static scene traced, or taken from `loaded` (a
+  // cache of an earlier trace, moved from).
+  void build_camera(Slot slot, const camera::RigCamera& cam, StaticLayers* loaded) {
+    CameraCache& c = cams[static_cast<int>(slot)];
+    c.camera = &cam;
+    c.visible = slot == Slot::visible_left || slot == Slot::visible_right;
+    c.size = cam.model->image_size();
+    c.channels = c.visible ? 3 : 1;
+    c.centre = cam.T_ref_cam.translation();
+    c.R_world_cam = cam.T_ref_cam.linear();
+    c.T_cam_world = cam.T_ref_cam.inverse();
+    {  // angle of one pixel at the image centre, for texture level of detail
+      Eigen::Vector3d a, b;
+      const Eigen::Vector2d mid(c.size.width / 2.0, c.size.height / 2.0);
+      if (cam.model->unproject(mid, a) && cam.model->unproject(mid + Eigen::Vector2d(1, 0), b))
+        c.pixel_angle_rad = std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0));
+    }
+    if (loaded != nullptr) {
+      c.rays = std::move(loaded->rays);
+      c.static_depth = std::move(loaded->depth);
+      c.static_id = std::move(loaded->id);
+      c.static_linear = std::move(loaded->linear);
+    } else {
+      trace_static_scene(c, cam);
+    }
     if (!c.visible) build_fixed_pattern(slot, c);
     c.static_clean.create(c.size, c.visible ? CV_8UC3 : CV_16UC1);
     finish(c, c.static_linear, cv::Rect(cv::Point(0, 0), c.size), c.static_clean, true);
@@ -618,8 +779,11 @@ struct SimulatedRig::Impl {
   }
 };
 
-SimulatedRig::SimulatedRig(camera::Rig rig, Scene scene, std::uint64_t seed,
-                           RenderOptions options) {
+SimulatedRig::SimulatedRig(camera::Rig rig, Scene scene, std::uint64_t seed, RenderOptions options)
+    : SimulatedRig(std::move(rig), std::move(scene), seed, options, StaticCache{}) {}
+
+SimulatedRig::SimulatedRig(camera::Rig rig, Scene scene, std::uint64_t seed, RenderOptions options,
+                           const StaticCache& cache) {
   validate(scene);
   impl_ = std::make_unique<Impl>(std::move(rig), std::move(scene), seed, options);
   Impl& m = *impl_;
@@ -658,8 +822,30 @@ SimulatedRig::SimulatedRig(camera::Rig rig, Scene scene, std::uint64_t seed,
   for (std::int8_t& v : m.noise_plane) {
     v = static_cast<std::int8_t>(std::clamp(std::lround(kNoiseScale * normal.next()), -127L, 127L));
   }
-  for (int i = 0; i < kSlotCount; ++i)
-    m.build_camera(static_cast<Slot>(i), m.rig.camera(names[static_cast<std::size_t>(i)]));
+  StaticScene stored;
+  if (!cache.file.empty()) {
+    std::array<cv::Size, kSlotCount> sizes;
+    for (int i = 0; i < kSlotCount; ++i) {
+      sizes[static_cast<std::size_t>(i)] =
+          m.rig.camera(names[static_cast<std::size_t>(i)]).model->image_size();
+    }
+    m.static_setup.note = read_static(cache.file, cache.key, sizes, stored, m.static_mapping);
+    m.static_setup.loaded = m.static_setup.note.empty();
+  }
+  for (int i = 0; i < kSlotCount; ++i) {
+    m.build_camera(static_cast<Slot>(i), m.rig.camera(names[static_cast<std::size_t>(i)]),
+                   m.static_setup.loaded ? &stored[static_cast<std::size_t>(i)] : nullptr);
+  }
+  if (!m.static_setup.loaded) m.static_mapping.reset();
+  if (!cache.file.empty() && !m.static_setup.loaded) {
+    StaticScene traced;
+    for (int i = 0; i < kSlotCount; ++i) {
+      const CameraCache& c = m.cams[static_cast<std::size_t>(i)];
+      traced[static_cast<std::size_t>(i)] = {c.rays, c.static_depth, c.static_id, c.static_linear};
+    }
+    const std::string written = write_static(cache.file, cache.key, traced);
+    if (!written.empty()) m.static_setup.note += "; " + written;
+  }
 }
 
 SimulatedRig::~SimulatedRig() = default;
@@ -667,6 +853,7 @@ SimulatedRig::SimulatedRig(SimulatedRig&&) noexcept = default;
 SimulatedRig& SimulatedRig::operator=(SimulatedRig&&) noexcept = default;
 
 const camera::Rig& SimulatedRig::rig() const { return impl_->rig; }
+const StaticSetup& SimulatedRig::static_setup() const { return impl_->static_setup; }
 const Scene& SimulatedRig::scene() const { return impl_->scene; }
 const camera::RigCamera& SimulatedRig::camera(Slot slot) const {
   return *impl_->cams[static_cast<int>(slot)].camera;

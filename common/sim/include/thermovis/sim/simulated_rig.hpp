@@ -18,6 +18,7 @@
 #include <Eigen/Core>
 #include <array>
 #include <cstdint>
+#include <filesystem>
 #include <memory>
 #include <opencv2/core/mat.hpp>
 #include <optional>
@@ -60,16 +61,44 @@ struct TargetTruth {
   std::array<std::optional<TruthBox>, kSlotCount> boxes;  // empty where it is not in the image
 };
 
+// A file that keeps the traced static scene (ray, depth, surface id and linear value of every
+// pixel of each camera: most of the construction's CPU, about 3 s for the paper's rig and scene)
+// from one SimulatedRig to the next, so a restarted simulator is ready in a fraction of a second
+// (the file is mapped, not read: its pages are the images).
+// The file holds `key` and is used only by a rig given the same key: the caller makes the key
+// change with anything the static scene depends on (the rig, the scene, the simulator's code;
+// not the seed or the render options, which the file does not hold). About 160 MB for the
+// paper's rig.
+struct StaticCache {
+  std::filesystem::path file;
+  std::string key;
+};
+
+// How a SimulatedRig got its static scene.
+struct StaticSetup {
+  bool loaded = false;  // read from the cache file (else traced)
+  std::string note;     // why the cache was not read or not written ("" when all went well)
+};
+
 class SimulatedRig {
  public:
   // The rig must have the cameras its `visible` and `infrared` pairs name. Throws
   // std::invalid_argument for an invalid scene (validate()) or rig.
   SimulatedRig(camera::Rig rig, Scene scene, std::uint64_t seed, RenderOptions options = {});
+  // The same, reading the traced static scene from `cache` when the file holds `cache.key` and
+  // fits the rig; otherwise traces it and writes the file (to a temporary name, then renamed,
+  // so a reader never sees half a file; never rewrite a file in place while a rig maps it). A
+  // missing, foreign, truncated or garbled file, or one that cannot be written, is never an
+  // error: the rig traces the scene and static_setup() says why. The images are the same bytes
+  // either way.
+  SimulatedRig(camera::Rig rig, Scene scene, std::uint64_t seed, RenderOptions options,
+               const StaticCache& cache);
   ~SimulatedRig();
   SimulatedRig(SimulatedRig&&) noexcept;
   SimulatedRig& operator=(SimulatedRig&&) noexcept;
 
   const camera::Rig& rig() const;
+  const StaticSetup& static_setup() const;
   const Scene& scene() const;
   const camera::RigCamera& camera(Slot slot) const;
 
