@@ -65,8 +65,8 @@ sim::StaticCache static_cache(const std::string& option, const std::filesystem::
   return {cache_folder(option) / ("sim-static-" + exe + rig + scene + ".bin"), key};
 }
 
-// Keeps the `keep` newest static scene caches of `folder` (each ~160 MB): older builds', rigs'
-// and scenes' go.
+// Keeps the `keep` newest set-up caches of `folder` (each ~200 MB): older builds', rigs', scenes'
+// and seeds' go.
 void prune_caches(const std::filesystem::path& folder, std::size_t keep) {
   namespace fs = std::filesystem;
   std::error_code error;
@@ -86,7 +86,7 @@ void prune_caches(const std::filesystem::path& folder, std::size_t keep) {
 // with `prerender` N > 0, capture k shows frame k % N: N frames are rendered once, by a thread
 // in the background, and each fill is a copy of frame k % N when it is ready, else a live
 // render of it (the same bytes), so the first capture goes out as soon as the rig is set up.
-// Moving targets repeat every N captures. The static scene comes from the cache
+// Moving targets repeat every N captures. The simulator's set-up comes from the cache
 // (sim::StaticCache) when an earlier run left one, so a restarted bridge starts in a fraction
 // of a second instead of seconds.
 class SimSource final : public FrameSource {

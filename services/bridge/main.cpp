@@ -32,10 +32,10 @@ int main(int argc, char** argv) {
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
   app.add_option("--sim-cache", source.sim_cache,
-                 "sim: folder of the traced static scene, kept between runs so that a restarted "
-                 "bridge starts in a fraction of a second instead of seconds (~160 MB per rig and "
-                 "scene, the 3 newest kept): auto ($XDG_CACHE_HOME/thermovis, else "
-                 "~/.cache/thermovis), a folder, or none")
+                 "sim: folder of the simulator's set-up (the traced static scene and noise "
+                 "tables), kept between runs so that a restarted bridge starts in a fraction of a "
+                 "second instead of seconds (~200 MB per rig, scene and seed, the 3 newest kept): "
+                 "auto ($XDG_CACHE_HOME/thermovis, else ~/.cache/thermovis), a folder, or none")
       ->capture_default_str();
   app.add_option("--dir", source.directory,
                  "files: a folder written by `thermovis scene render --out` (numbered frame "

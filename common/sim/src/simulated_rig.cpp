@@ -127,34 +127,41 @@ struct CameraCache {
   cv::Mat fpn_offset, fpn_gain;  // CV_32FC1, infrared
 };
 
-// The traced static scene of one camera, as the cache file keeps it.
-struct StaticLayers {
-  cv::Mat rays;    // CV_32FC3
-  cv::Mat depth;   // CV_32FC1
-  cv::Mat id;      // CV_16UC1
-  cv::Mat linear;  // CV_32FC3 (visible) or CV_32FC1 (infrared)
-  std::array<cv::Mat*, 4> all() { return {&rays, &depth, &id, &linear}; }
-};
-using StaticScene = std::array<StaticLayers, kSlotCount>;
+// What the set-up computes for one camera, in the cache file's order: rays, depth, surface id,
+// linear values, the noise-free image, then (visible) its noise sigma or (infrared) the
+// fixed-pattern offset and gain.
+std::vector<cv::Mat*> cached_layers(CameraCache& c) {
+  std::vector<cv::Mat*> layers{&c.rays, &c.static_depth, &c.static_id, &c.static_linear,
+                               &c.static_clean};
+  if (c.visible) {
+    layers.push_back(&c.static_sigma);
+  } else {
+    layers.push_back(&c.fpn_offset);
+    layers.push_back(&c.fpn_gain);
+  }
+  return layers;
+}
+std::vector<int> cached_types(const CameraCache& c) {
+  if (c.visible) return {CV_32FC3, CV_32FC1, CV_16UC1, CV_32FC3, CV_8UC3, CV_8UC3};
+  return {CV_32FC3, CV_32FC1, CV_16UC1, CV_32FC1, CV_16UC1, CV_32FC1, CV_32FC1};
+}
 
 // Cache file: a header of kCacheHeader bytes (magic, key length (u64) and key, per camera its
-// width and height and the OpenCV type of each layer (i32)), then the layers' pixels (continuous
-// rows), each starting on a kCacheAlign boundary. Read by mapping it: the pages of the file are
-// the images, and only the pixels used are ever read.
-constexpr char kCacheMagic[8] = {'T', 'V', 'S', 'T', 'A', 'T', 'I', '2'};
+// width and height and the OpenCV type of each layer (i32), the noise plane's length (u64)),
+// then each camera's layers and the noise plane, each starting on a kCacheAlign boundary. Read
+// by mapping it: the pages of the file are the images, and only the pixels used are ever read.
+constexpr char kCacheMagic[8] = {'T', 'V', 'S', 'T', 'A', 'T', 'I', '3'};
 constexpr std::size_t kCacheHeader = 8192;
 constexpr std::size_t kCacheAlign = 64;
 constexpr std::size_t kMaxKey = 4096;
 
-int layer_type(int slot, int layer) {
-  constexpr int kTypes[4] = {CV_32FC3, CV_32FC1, CV_16UC1, CV_32FC3};
-  return layer == 3 && slot >= 2 ? CV_32FC1 : kTypes[layer];
-}
 std::size_t aligned(std::size_t n) { return (n + kCacheAlign - 1) / kCacheAlign * kCacheAlign; }
 
-// Writes `scene` to `file` (through a temporary file renamed over it); "" or why not.
+// Writes the cameras' set-up and the noise plane to `file` (through a temporary file renamed
+// over it); "" or why not.
 std::string write_static(const std::filesystem::path& file, const std::string& key,
-                         StaticScene& scene) {
+                         std::array<CameraCache, kSlotCount>& cams,
+                         const std::vector<std::int8_t>& noise_plane) {
   if (key.size() > kMaxKey) return "cache key over " + std::to_string(kMaxKey) + " bytes";
   std::error_code error;
   if (file.has_parent_path()) std::filesystem::create_directories(file.parent_path(), error);
@@ -171,25 +178,28 @@ std::string write_static(const std::filesystem::path& file, const std::string& k
     const std::uint64_t key_size = key.size();
     put(&key_size, sizeof key_size);
     put(key.data(), key.size());
-    for (StaticLayers& layers : scene) {
-      const std::int32_t size[2] = {layers.depth.cols, layers.depth.rows};
+    for (CameraCache& c : cams) {
+      const std::int32_t size[2] = {c.size.width, c.size.height};
       put(size, sizeof size);
-      for (const cv::Mat* m : layers.all()) {
+      for (const cv::Mat* m : cached_layers(c)) {
         const std::int32_t type = m->type();
         put(&type, sizeof type);
       }
     }
+    const std::uint64_t plane = noise_plane.size();
+    put(&plane, sizeof plane);
     std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
     if (!out) return "cannot write " + temporary.string();
     out.write(header.data(), static_cast<std::streamsize>(header.size()));
     const char padding[kCacheAlign] = {};
-    for (StaticLayers& layers : scene) {
-      for (const cv::Mat* m : layers.all()) {
-        const std::size_t bytes = m->total() * m->elemSize();
-        out.write(m->ptr<char>(), static_cast<std::streamsize>(bytes));
-        out.write(padding, static_cast<std::streamsize>(aligned(bytes) - bytes));
-      }
+    const auto block = [&out, &padding](const void* data, std::size_t bytes) {
+      out.write(static_cast<const char*>(data), static_cast<std::streamsize>(bytes));
+      out.write(padding, static_cast<std::streamsize>(aligned(bytes) - bytes));
+    };
+    for (CameraCache& c : cams) {
+      for (const cv::Mat* m : cached_layers(c)) block(m->ptr(), m->total() * m->elemSize());
     }
+    block(noise_plane.data(), noise_plane.size());
     if (!out.flush()) {
       out.close();
       std::filesystem::remove(temporary, error);
@@ -204,11 +214,12 @@ std::string write_static(const std::filesystem::path& file, const std::string& k
   return "";
 }
 
-// Maps `file` and points `scene` into it when it holds `key` and layers of `sizes`; "" or why
-// not. `mapping` keeps the mapping for as long as the images are used.
+// Maps `file` when it holds `key` and the layers of `cams` (whose sizes and bands are set) and
+// points their layers into it, and copies the noise plane (of `plane_size`); "" or why not.
+// `mapping` keeps the mapping for as long as the images are used.
 std::string read_static(const std::filesystem::path& file, const std::string& key,
-                        const std::array<cv::Size, kSlotCount>& sizes, StaticScene& scene,
-                        std::shared_ptr<void>& mapping) {
+                        std::array<CameraCache, kSlotCount>& cams, std::size_t plane_size,
+                        std::vector<std::int8_t>& noise_plane, std::shared_ptr<void>& mapping) {
   const int fd = ::open(file.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) return "no cache file " + file.string() + " yet";
   struct stat st {};
@@ -222,7 +233,7 @@ std::string read_static(const std::filesystem::path& file, const std::string& ke
   const std::string what = "cache file " + file.string();
   if (base == MAP_FAILED) return what + " is not a static scene cache (too short)";
   mapping = std::shared_ptr<void>(base, [length](void* p) { ::munmap(p, length); });
-  const auto* bytes = static_cast<const std::uint8_t*>(base);
+  auto* bytes = static_cast<std::uint8_t*>(base);
   std::size_t at = 0;
   const auto get = [bytes, &at](void* out, std::size_t n) {
     std::memcpy(out, bytes + at, n);
@@ -235,29 +246,36 @@ std::string read_static(const std::filesystem::path& file, const std::string& ke
   if (std::memcmp(magic, kCacheMagic, sizeof magic) != 0 || key_size > kMaxKey)
     return what + " is not a static scene cache";
   if (key_size != key.size() || std::memcmp(bytes + at, key.data(), key.size()) != 0)
-    return what + " is for another rig, scene or build";
+    return what + " is for another rig, scene, seed or build";
   at += key.size();
   std::size_t data = kCacheHeader;
   for (int i = 0; i < kSlotCount; ++i) {
-    const cv::Size size = sizes[static_cast<std::size_t>(i)];
+    CameraCache& c = cams[static_cast<std::size_t>(i)];
     std::int32_t stored[2] = {0, 0};
     get(stored, sizeof stored);
-    if (stored[0] != size.width || stored[1] != size.height)
+    if (stored[0] != c.size.width || stored[1] != c.size.height)
       return what + ": " + to_string(static_cast<Slot>(i)) + " is not the rig's size";
-    StaticLayers& layers = scene[static_cast<std::size_t>(i)];
-    for (int layer = 0; layer < 4; ++layer) {
+    const std::vector<int> types = cached_types(c);
+    const std::vector<cv::Mat*> layers = cached_layers(c);
+    for (std::size_t k = 0; k < layers.size(); ++k) {
       std::int32_t type = -1;
       get(&type, sizeof type);
-      if (type != layer_type(i, layer))
+      if (type != types[k])
         return what + ": " + to_string(static_cast<Slot>(i)) + " has a wrong layer type";
       const std::size_t n =
-          static_cast<std::size_t>(size.area()) * static_cast<std::size_t>(CV_ELEM_SIZE(type));
+          static_cast<std::size_t>(c.size.area()) * static_cast<std::size_t>(CV_ELEM_SIZE(type));
       if (data + n > length) return what + " is truncated";
-      *layers.all()[static_cast<std::size_t>(layer)] =
-          cv::Mat(size, type, static_cast<std::uint8_t*>(base) + data);
+      *layers[k] = cv::Mat(c.size, type, bytes + data);
       data += aligned(n);
     }
   }
+  std::uint64_t plane = 0;
+  get(&plane, sizeof plane);
+  if (plane != plane_size) return what + ": the noise plane is not this rig's";
+  if (data + plane > length) return what + " is truncated";
+  noise_plane.assign(reinterpret_cast<const std::int8_t*>(bytes + data),
+                     reinterpret_cast<const std::int8_t*>(bytes + data + plane));
+  data += aligned(plane);
   if (data != length) return what + " is truncated or too long";
   return "";
 }
@@ -455,9 +473,8 @@ struct SimulatedRig::Impl {
     });
   }
 
-  // The camera's rays and static images: the static scene traced, or taken from `loaded` (a
-  // cache of an earlier trace, moved from).
-  void build_camera(Slot slot, const camera::RigCamera& cam, StaticLayers* loaded) {
+  // The camera's geometry: size, band, pose, the angle of a pixel.
+  void set_geometry(Slot slot, const camera::RigCamera& cam) {
     CameraCache& c = cams[static_cast<int>(slot)];
     c.camera = &cam;
     c.visible = slot == Slot::visible_left || slot == Slot::visible_right;
@@ -472,14 +489,13 @@ struct SimulatedRig::Impl {
       if (cam.model->unproject(mid, a) && cam.model->unproject(mid + Eigen::Vector2d(1, 0), b))
         c.pixel_angle_rad = std::acos(std::clamp(a.normalized().dot(b.normalized()), -1.0, 1.0));
     }
-    if (loaded != nullptr) {
-      c.rays = std::move(loaded->rays);
-      c.static_depth = std::move(loaded->depth);
-      c.static_id = std::move(loaded->id);
-      c.static_linear = std::move(loaded->linear);
-    } else {
-      trace_static_scene(c, cam);
-    }
+  }
+
+  // The camera's rays and static images (set_geometry first): the static scene traced, its
+  // noise-free image, the fixed-pattern noise.
+  void build_camera(Slot slot) {
+    CameraCache& c = cams[static_cast<int>(slot)];
+    trace_static_scene(c, *c.camera);
     if (!c.visible) build_fixed_pattern(slot, c);
     c.static_clean.create(c.size, c.visible ? CV_8UC3 : CV_16UC1);
     finish(c, c.static_linear, cv::Rect(cv::Point(0, 0), c.size), c.static_clean, true);
@@ -817,33 +833,31 @@ SimulatedRig::SimulatedRig(camera::Rig rig, Scene scene, std::uint64_t seed, Ren
     const cv::Size size = m.rig.camera(names[static_cast<std::size_t>(i)]).model->image_size();
     longest = std::max(longest, static_cast<std::size_t>(size.width) * (i < 2 ? 3 : 1));
   }
+  for (int i = 0; i < kSlotCount; ++i)
+    m.set_geometry(static_cast<Slot>(i), m.rig.camera(names[static_cast<std::size_t>(i)]));
+  // The file also holds what the seed and the fixed-pattern option decide.
+  const std::string key = cache.key + " | seed " + std::to_string(seed) + ", fixed pattern " +
+                          (options.fixed_pattern ? "on" : "off");
+  if (!cache.file.empty()) {
+    m.static_setup.note = read_static(cache.file, key, m.cams, kNoiseOffsets + longest,
+                                      m.noise_plane, m.static_mapping);
+    m.static_setup.loaded = m.static_setup.note.empty();
+  }
+  if (m.static_setup.loaded) return;
+  // Layers a rejected file got as far as pointing into its mapping: released before it goes
+  // (create() would keep a view of the same size and type).
+  for (CameraCache& c : m.cams) {
+    for (cv::Mat* layer : cached_layers(c)) layer->release();
+  }
+  m.static_mapping.reset();
   m.noise_plane.resize(kNoiseOffsets + longest);
   NormalStream normal(mix_seed(seed, 0xA0, 0));
   for (std::int8_t& v : m.noise_plane) {
     v = static_cast<std::int8_t>(std::clamp(std::lround(kNoiseScale * normal.next()), -127L, 127L));
   }
-  StaticScene stored;
+  for (int i = 0; i < kSlotCount; ++i) m.build_camera(static_cast<Slot>(i));
   if (!cache.file.empty()) {
-    std::array<cv::Size, kSlotCount> sizes;
-    for (int i = 0; i < kSlotCount; ++i) {
-      sizes[static_cast<std::size_t>(i)] =
-          m.rig.camera(names[static_cast<std::size_t>(i)]).model->image_size();
-    }
-    m.static_setup.note = read_static(cache.file, cache.key, sizes, stored, m.static_mapping);
-    m.static_setup.loaded = m.static_setup.note.empty();
-  }
-  for (int i = 0; i < kSlotCount; ++i) {
-    m.build_camera(static_cast<Slot>(i), m.rig.camera(names[static_cast<std::size_t>(i)]),
-                   m.static_setup.loaded ? &stored[static_cast<std::size_t>(i)] : nullptr);
-  }
-  if (!m.static_setup.loaded) m.static_mapping.reset();
-  if (!cache.file.empty() && !m.static_setup.loaded) {
-    StaticScene traced;
-    for (int i = 0; i < kSlotCount; ++i) {
-      const CameraCache& c = m.cams[static_cast<std::size_t>(i)];
-      traced[static_cast<std::size_t>(i)] = {c.rays, c.static_depth, c.static_id, c.static_linear};
-    }
-    const std::string written = write_static(cache.file, cache.key, traced);
+    const std::string written = write_static(cache.file, key, m.cams, m.noise_plane);
     if (!written.empty()) m.static_setup.note += "; " + written;
   }
 }

@@ -60,9 +60,12 @@ TEST(StaticCache, ARigFromTheCacheRendersTheSameBytes) {
     loaded.render(frame, b);
     EXPECT_TRUE(same_bytes(a, b)) << "frame " << frame;
   }
-  // The seed is not in the file: another seed's fixed-pattern noise is drawn anew.
+  // Another seed draws other noise: the file is not used.
   const SimulatedRig other_seed(paper_rig(), scene, 6, {}, cache);
-  EXPECT_TRUE(other_seed.static_setup().loaded);
+  EXPECT_FALSE(other_seed.static_setup().loaded);
+  EXPECT_NE(other_seed.static_setup().note.find("for another rig, scene, seed or build"),
+            std::string::npos)
+      << other_seed.static_setup().note;
   FrameSet a = traced.allocate(), b = other_seed.allocate();
   traced.render(0, a);
   other_seed.render(0, b);
@@ -83,7 +86,7 @@ TEST(StaticCache, AForeignTruncatedOrGarbageFileIsTracedAgainAndNamed) {
 
   const SimulatedRig foreign(paper_rig(), flat_scene(), 1, {}, StaticCache{cache.file, "other"});
   EXPECT_FALSE(foreign.static_setup().loaded);
-  EXPECT_NE(foreign.static_setup().note.find("is for another rig, scene or build"),
+  EXPECT_NE(foreign.static_setup().note.find("is for another rig, scene, seed or build"),
             std::string::npos)
       << foreign.static_setup().note;
 

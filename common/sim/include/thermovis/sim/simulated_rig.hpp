@@ -61,14 +61,14 @@ struct TargetTruth {
   std::array<std::optional<TruthBox>, kSlotCount> boxes;  // empty where it is not in the image
 };
 
-// A file that keeps the traced static scene (ray, depth, surface id and linear value of every
-// pixel of each camera: most of the construction's CPU, about 3 s for the paper's rig and scene)
-// from one SimulatedRig to the next, so a restarted simulator is ready in a fraction of a second
-// (the file is mapped, not read: its pages are the images).
-// The file holds `key` and is used only by a rig given the same key: the caller makes the key
-// change with anything the static scene depends on (the rig, the scene, the simulator's code;
-// not the seed or the render options, which the file does not hold). About 160 MB for the
-// paper's rig.
+// A file that keeps what a SimulatedRig's construction computes (each pixel's ray and the static
+// scene along it, the noise-free static images, the fixed-pattern and temporal noise tables:
+// about 3 s of CPU for the paper's rig and scene) from one SimulatedRig to the next, so a
+// restarted simulator is ready in a fraction of a second (the file is mapped, not read: its
+// pages are the images). The file holds `key` and is used only by a rig given the same key: the
+// caller makes the key change with anything the static scene depends on (the rig, the scene,
+// the simulator's code); the rig adds the seed and the fixed-pattern option to it. About 200 MB
+// for the paper's rig.
 struct StaticCache {
   std::filesystem::path file;
   std::string key;
