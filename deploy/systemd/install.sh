@@ -11,6 +11,9 @@ for exe in thermovis-bridge thermovis-rectify-fuse thermovis-detect thermovis-ma
 done
 install -d /opt/thermovis/bin /opt/thermovis/deploy /etc/thermovis
 install -m 0755 "$bin_dir"/thermovis* /opt/thermovis/bin/
+# The bridge's files and v4l2 sources, loaded from beside the executable when asked for.
+[ -f "$bin_dir/libthermovis_bridge_media.so" ] &&
+  install -m 0755 "$bin_dir/libthermovis_bridge_media.so" /opt/thermovis/bin/
 cp -r deploy/rigs deploy/dds deploy/scenes deploy/pipeline.yaml /opt/thermovis/deploy/
 [ -f /etc/thermovis/thermovis.env ] || install -m 0644 deploy/systemd/thermovis.env /etc/thermovis/
 install -m 0644 deploy/systemd/*.service deploy/systemd/thermovis.target /etc/systemd/system/
