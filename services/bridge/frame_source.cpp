@@ -51,18 +51,22 @@ std::filesystem::path cache_folder(const std::string& option) {
   return "/tmp/thermovis-cache";
 }
 
-// The static scene cache of this executable, rig and scene (sim::StaticCache): the key names
-// all three by digest, so a rebuilt simulator or an edited rig or scene never reads an old file.
-// Empty (no cache) for --sim-cache none or when a file cannot be read.
+// The set-up cache of this executable, rig, scene and seed (sim::StaticCache): the key names the
+// first three by digest, so a rebuilt simulator or an edited rig or scene never reads an old
+// file (the rig adds the seed to the key itself; the file name has it so that bridges with other
+// seeds keep files of their own). Empty (no cache) for --sim-cache none or when a file cannot be
+// read.
 sim::StaticCache static_cache(const std::string& option, const std::filesystem::path& rig_file,
-                              const std::filesystem::path& scene_file) {
+                              const std::filesystem::path& scene_file, std::uint64_t seed) {
   if (option == "none") return {};
   const std::string exe = file_digest("/proc/self/exe");
   const std::string rig = file_digest(rig_file);
   const std::string scene = file_digest(scene_file);
   if (exe.empty() || rig.empty() || scene.empty()) return {};
   const std::string key = "exe " + exe + " rig " + rig + " scene " + scene;
-  return {cache_folder(option) / ("sim-static-" + exe + rig + scene + ".bin"), key};
+  return {cache_folder(option) /
+              ("sim-static-" + exe + rig + scene + "-seed" + std::to_string(seed) + ".bin"),
+          key};
 }
 
 // Keeps the `keep` newest set-up caches of `folder` (each ~200 MB): older builds', rigs', scenes'
@@ -139,9 +143,10 @@ class SimSource final : public FrameSource {
       throw std::runtime_error("sim source: --prerender must be 0 (render live) or a count, got " +
                                std::to_string(options.prerender));
     }
-    const sim::StaticCache cache = options.rig_file.empty()
-                                       ? sim::StaticCache{}
-                                       : static_cache(options.sim_cache, options.rig_file, scene);
+    const sim::StaticCache cache =
+        options.rig_file.empty()
+            ? sim::StaticCache{}
+            : static_cache(options.sim_cache, options.rig_file, scene, options.seed);
     sim::SimulatedRig out(rig, runtime::load_scene(scene), options.seed, {}, cache);
     if (!cache.file.empty() && !out.static_setup().loaded)
       prune_caches(cache.file.parent_path(), 3);
