@@ -11,7 +11,9 @@ function(thermovis_add_gtest)
   gtest_discover_tests(${ARG_NAME}
     DISCOVERY_TIMEOUT 60
     PROPERTIES LABELS ${ARG_LABEL} TIMEOUT ${ARG_TIMEOUT}
-               ENVIRONMENT "THERMOVIS_BIN_DIR=${PROJECT_BINARY_DIR}/bin;THERMOVIS_SOURCE_DIR=${PROJECT_SOURCE_DIR}")
+               # XDG_CACHE_HOME: the simulated bridge's set-up cache (--sim-cache auto, ~200 MB
+               # a file) stays in the build tree, shared by the tests, not in the user's home.
+               ENVIRONMENT "THERMOVIS_BIN_DIR=${PROJECT_BINARY_DIR}/bin;THERMOVIS_SOURCE_DIR=${PROJECT_SOURCE_DIR};XDG_CACHE_HOME=${PROJECT_BINARY_DIR}/test-cache")
 endfunction()
 
 # thermovis_add_benchmark(NAME <exe> SOURCES ... LIBS ...): Google Benchmark executable,
