@@ -1,6 +1,9 @@
 #include "thermovis/transport/endpoint.hpp"
 
+#include <atomic>
+#include <chrono>
 #include <stdexcept>
+#include <thread>
 #include <utility>
 
 #include <fastdds/dds/publisher/DataWriter.hpp>
@@ -16,6 +19,19 @@
 namespace thermovis::transport {
 
 namespace dds = eprosima::fastdds::dds;
+
+namespace {
+
+// When this process last wrote a frame (steady clock, ns since its epoch; 0: never).
+std::atomic<std::int64_t> last_frame_write_ns{0};
+
+std::int64_t steady_now_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(
+             std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+}  // namespace
 
 void MatchedCount::set(std::uint32_t count, TopicCounters& counters) {
   {
@@ -114,6 +130,23 @@ WriterBase::WriterBase(Participant& participant, const std::string& topic,
 }
 
 WriterBase::~WriterBase() {
+  // A data-sharing reader still holding a loan of this writer's last frames when the writer is
+  // deleted crashes when it returns the loan: Fast DDS 2.9 hands it back through the pool object
+  // it freed at the unmatch (SampleLoanManager::return_loan -> IPayloadPool::release_payload).
+  // So a frame writer with readers is deleted only once they have had kFrameDrain since this
+  // process's last frame to finish with it (the first writer deleted waits, the others find
+  // the time passed). Killed processes do not get here; their readers drop them only at the end
+  // of the lease (10 s), long after any loan is returned.
+  if (qos_.kind == TopicKind::frame) {
+    dds::PublicationMatchedStatus status;
+    const std::int64_t last = last_frame_write_ns.load();
+    if (last != 0 && writer_->get_publication_matched_status(status) == ReturnCode_t::RETCODE_OK &&
+        status.current_count > 0) {
+      const std::int64_t wait_ns =
+          last + std::chrono::nanoseconds(kFrameDrain).count() - steady_now_ns();
+      if (wait_ns > 0) std::this_thread::sleep_for(std::chrono::nanoseconds(wait_ns));
+    }
+  }
   // Stop callbacks before the listener goes, then delete the writer.
   writer_->set_listener(nullptr);
   participant_->publisher->delete_datawriter(writer_);
@@ -146,6 +179,7 @@ void WriterBase::write_raw(void* sample) {
     throw std::runtime_error("cannot write on '" + topic_ + "': " + return_code_name(code));
   }
   ++counters_->samples;
+  if (qos_.kind == TopicKind::frame) last_frame_write_ns.store(steady_now_ns());
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -34,6 +34,11 @@ class MatchedCount {
   std::uint32_t count_ = 0;
 };
 
+// How long a frame writer with readers outlives this process's last frame when it is deleted:
+// longer than any reader holds a frame (a capture is processed in 20-60 ms, up to ~300 ms on a
+// saturated machine). See ~WriterBase.
+inline constexpr std::chrono::milliseconds kFrameDrain{500};
+
 class WriterBase {
  public:
   WriterBase(Participant& participant, const std::string& topic,
