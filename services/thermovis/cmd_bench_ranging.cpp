@@ -34,6 +34,7 @@ struct Options {
   std::string method = "ncc";
   std::uint64_t seed = 1;
   bool json = false;
+  bool points = false;
 };
 
 // Table 6 of the paper: absolute difference (m) per distance for visible, infrared, fused.
@@ -80,7 +81,56 @@ struct Cell {
   std::vector<double> errors;
   int within_sigma = 0, failures = 0;
   double sigma_sum = 0;
+  // --points: the kept points against the simulator's geometry (evaluation only).
+  int points = 0, on_target = 0;
+  double disparity_error_sum = 0, disparity_error_sum2 = 0;  // on-target points, px
+  double off_target_error_sum = 0;          // off-target points vs the target centre's, px
+  double centre_offset_sum = 0;             // true centre distance - true point distance, m
+  std::vector<double> true_disparity_errors;  // the estimator on true disparities, m
 };
+
+// --points: each kept point of a ranged target traced in the simulated scene: whether its left
+// pixel's ray meets the target, the true disparity there, and the range the same points would
+// give with their true disparities.
+void evaluate_points(const sim::SimulatedRig& simulated, const sim::TargetTruth& truth,
+                     const rg::RangingGeometry& g, const rg::RangedTarget& r,
+                     const rg::RangerOptions& options, Cell& cell) {
+  const Eigen::Isometry3d& T = g.T_ref_left_rect;
+  const Eigen::Isometry3d& T_ref_vl = simulated.rig().camera(simulated.rig().visible.left).T_ref_cam;
+  Eigen::Vector2d centre_px;
+  double centre_disparity = 0;
+  const Eigen::Vector3d centre_rect = T.inverse() * (T_ref_vl * truth.position_m);
+  if (!rg::project_point(g.grid, g.baseline_m, centre_rect, centre_px, centre_disparity)) return;
+  // The same matches with the true disparity wherever the pixel's ray meets the target.
+  std::vector<thermovis::match::Correspondence> corrected = r.matching.matches;
+  for (int k : r.range.used) {
+    auto& c = corrected[static_cast<size_t>(k)];
+    Eigen::Vector3d ray;
+    if (!g.grid.unproject(c.left, ray)) continue;
+    ray.normalize();
+    ++cell.points;
+    const sim::RayTruth hit = simulated.trace(T * Eigen::Vector3d::Zero(), T.linear() * ray, 0);
+    if (hit.target_id != truth.id) {
+      cell.off_target_error_sum += c.disparity_px - centre_disparity;
+      continue;
+    }
+    ++cell.on_target;
+    Eigen::Vector2d px;
+    double d_true = 0;
+    if (!rg::project_point(g.grid, g.baseline_m, hit.distance_m * ray, px, d_true)) continue;
+    const double e = c.disparity_px - d_true;
+    cell.disparity_error_sum += e;
+    cell.disparity_error_sum2 += e * e;
+    cell.centre_offset_sum += centre_rect.norm() - hit.distance_m;
+    c.disparity_px = d_true;
+  }
+  rg::TargetRange t = rg::range_target(g, r.box, corrected, options.range);
+  if (options.range.shape.empty()) rg::move_to_centre(t, g, options.centre_offset_m);
+  if (t.status == rg::RangeStatus::ok) {
+    cell.true_disparity_errors.push_back((T_ref_vl.inverse() * t.position_m).norm() -
+                                         truth.distance_m);
+  }
+}
 
 int run_bench_ranging(const Options& opt) {
   if (opt.trials < 1) throw std::invalid_argument("--trials must be >= 1");
@@ -98,6 +148,7 @@ int run_bench_ranging(const Options& opt) {
   rg::RangerOptions options;
   options.match.method = thermovis::match::parse_method(opt.method);
 
+  const Eigen::Isometry3d T_visible_left_ref = rig.camera(rig.visible.left).T_ref_cam.inverse();
   std::mt19937_64 rng(opt.seed);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   const std::vector<std::string> clothing = {"clothing", "clothing_red", "clothing_blue"};
@@ -141,6 +192,7 @@ int run_bench_ranging(const Options& opt) {
                                    [&](const sim::Target& t) { return t.id == truth.id; });
       const double nominal = it->distance_m;
       options.centre_offset_m = rg::surface_to_centre_m("person");
+      options.range.shape = rg::TargetShape::for_class("person");
       for (rg::Mode mode : modes) {
         Cell& cell = cells[{nominal, mode}];
         const auto& raw_box = truth.boxes[static_cast<size_t>(
@@ -156,10 +208,17 @@ int run_bench_ranging(const Options& opt) {
           ++cell.failures;
           continue;
         }
-        const double error = r.range.distance_m - truth.distance_m;
+        // From the left visible camera's centre, as the truth (infrared ranges are from the
+        // left infrared camera's).
+        const double error =
+            (T_visible_left_ref * r.range.position_m).norm() - truth.distance_m;
         cell.errors.push_back(error);
         cell.within_sigma += std::abs(error) <= r.range.sigma_m;
         cell.sigma_sum += r.range.sigma_m;
+        if (opt.points) {
+          evaluate_points(simulated, truth, ranger.geometry(mode), r, options,
+                          cell);
+        }
       }
     }
     if (!opt.json) {
@@ -197,6 +256,25 @@ int run_bench_ranging(const Options& opt) {
           {"within_1_sigma", n ? nlohmann::json(double(c.within_sigma) / n) : nlohmann::json()},
           {"mean_sigma_m", n ? nlohmann::json(c.sigma_sum / n) : nlohmann::json()},
           {"eq2_error_at_0.1px_m", eq2(mode, distance)}};
+      if (opt.points && c.points > 0) {
+        const double on = std::max(1, c.on_target);
+        const double mean_e = c.disparity_error_sum / on;
+        double true_bias = 0;
+        for (double e : c.true_disparity_errors) true_bias += e;
+        row["points_per_target"] = double(c.points) / std::max(1, n);
+        row["on_target_fraction"] = double(c.on_target) / c.points;
+        row["on_target_disparity_bias_px"] = mean_e;
+        row["on_target_disparity_sd_px"] =
+            std::sqrt(std::max(0.0, c.disparity_error_sum2 / on - mean_e * mean_e));
+        row["off_target_disparity_vs_centre_px"] =
+            c.points > c.on_target ? nlohmann::json(c.off_target_error_sum / (c.points - c.on_target))
+                                   : nlohmann::json();
+        row["true_centre_offset_m"] = c.centre_offset_sum / on;
+        row["bias_with_true_disparities_m"] =
+            c.true_disparity_errors.empty()
+                ? nlohmann::json()
+                : nlohmann::json(true_bias / static_cast<double>(c.true_disparity_errors.size()));
+      }
       const auto paper = paper_error(distance, mode);
       row["paper_abs_error_m"] = paper ? nlohmann::json(*paper) : nlohmann::json();
       rows.push_back(row);
@@ -230,6 +308,35 @@ int run_bench_ranging(const Options& opt) {
               << num(r["within_1_sigma"], 2) << std::setw(9) << num(r["paper_abs_error_m"], 2)
               << std::setw(11) << num(r["eq2_error_at_0.1px_m"], 3) << "\n";
   }
+  if (opt.points) {
+    std::cout << "\nKept points against the scene's geometry: points per target, fraction whose "
+                 "pixel ray meets the target, their disparity error (mean, sd, px), off-target "
+                 "points' disparity minus the target centre's (px), true centre distance minus "
+                 "point distance (m), and the bias the same points give with true disparities "
+                 "(m)\n";
+    std::cout << std::setw(7) << "dist m" << std::setw(10) << "mode" << std::setw(8) << "pts"
+              << std::setw(8) << "on" << std::setw(10) << "dbias" << std::setw(9) << "dsd"
+              << std::setw(10) << "off-d" << std::setw(10) << "offset" << std::setw(11)
+              << "true-d bias"
+              << "\n";
+    for (const auto& r : rows) {
+      if (!r.contains("points_per_target")) continue;
+      auto num = [](const nlohmann::json& v, int p) {
+        std::ostringstream s;
+        if (v.is_null()) return std::string("-");
+        s << std::fixed << std::setprecision(p) << v.get<double>();
+        return s.str();
+      };
+      std::cout << std::setw(7) << std::setprecision(0) << r["distance_m"].get<double>()
+                << std::setw(10) << r["mode"].get<std::string>() << std::setw(8)
+                << num(r["points_per_target"], 0) << std::setw(8) << num(r["on_target_fraction"], 2)
+                << std::setw(10) << num(r["on_target_disparity_bias_px"], 3) << std::setw(9)
+                << num(r["on_target_disparity_sd_px"], 3) << std::setw(10)
+                << num(r["off_target_disparity_vs_centre_px"], 3) << std::setw(10)
+                << num(r["true_centre_offset_m"], 3) << std::setw(11)
+                << num(r["bias_with_true_disparities_m"], 3) << "\n";
+    }
+  }
   return 0;
 }
 
@@ -252,6 +359,9 @@ THERMOVIS_COMMAND(
       app.add_flag("--json", opt->json,
                    "JSON rows: distance_m, mode, trials, mean_abs_error_m, "
                    "max_abs_error_m, within_1_sigma, ...");
+      app.add_flag("--points", opt->points,
+                   "also trace every kept point in the simulated scene (evaluation only): "
+                   "on-target fraction, disparity error against the true geometry");
       return [opt] { return run_bench_ranging(*opt); };
     });
 

@@ -166,6 +166,7 @@ int run_range(const Options& opt) {
                                           (*raw_box)[3]);
     }
     options.centre_offset_m = opt.surface ? 0.0 : rg::surface_to_centre_m(request.cls);
+    options.range.shape = opt.surface ? rg::TargetShape{} : rg::TargetShape::for_class(request.cls);
     const rg::RangedTarget t = ranger.range(frames, mode, box, options);
     const rg::TargetRange& r = t.range;
     auto number = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); };

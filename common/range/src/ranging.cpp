@@ -113,7 +113,96 @@ std::vector<int> reject_outliers_eq34(const std::vector<double>& values, int max
   return kept;
 }
 
+TargetShape TargetShape::for_class(const std::string& target_class) {
+  TargetShape s;
+  if (target_class == "person") {
+    // Height 1.75 m: legs to 0.4714, torso to 0.81, neck to 0.874, head (radius 0.07 h) on top.
+    s.sections = {{0.0, 0.4714, 0.20, 0.135, false},
+                  {0.4714, 0.81, 0.25, 0.15, false},
+                  {0.80, 0.874, 0.06, 0.06, false},
+                  {0.86, 1.0, 0.1225, 0.1225, true}};
+  } else if (target_class == "pole") {
+    s.sections = {{0.0, 1.0, 0.10, 0.10, false}};
+  } else if (target_class == "marker") {
+    s.sections = {{0.0, 1.0, 0.05, 0.05, true}};
+  }
+  return s;
+}
+
 namespace {
+
+// Per-point centre estimates of an upright target (TargetShape): each point's position moved
+// along the horizontal line of sight of the box's centre column by the shape's depth in front of
+// the axis at the point's height and lateral offset, then up or down the axis to half the box's
+// height. Replaces `distances` and `centres` (left rectified frame) in place; `per_px` is scaled
+// with the distances.
+void move_points_to_centre(const RangingGeometry& g, const cv::Rect& box, const TargetShape& shape,
+                           const std::vector<PointTriangulation>& points,
+                           std::vector<double>& distances, std::vector<Eigen::Vector3d>& centres,
+                           std::vector<double>& per_px) {
+  // Vertical (down) in the left rectified frame: the rig frame's +y.
+  const Eigen::Vector3d down =
+      (g.T_ref_left_rect.linear().transpose() * Eigen::Vector3d::UnitY()).normalized();
+  auto ray = [&](double x, double y, Eigen::Vector3d& r) {
+    return g.grid.unproject(Eigen::Vector2d(x, y), r);
+  };
+  const double cx = box.x + 0.5 * box.width - 0.5, cy = box.y + 0.5 * box.height - 0.5;
+  Eigen::Vector3d centre_ray, top_ray, bottom_ray, left_ray, right_ray;
+  if (!ray(cx, cy, centre_ray) || !ray(cx, box.y - 0.5, top_ray) ||
+      !ray(cx, box.br().y - 0.5, bottom_ray) || !ray(box.x - 0.5, cy, left_ray) ||
+      !ray(box.br().x - 0.5, cy, right_ray)) {
+    return;
+  }
+  Eigen::Vector3d ahead = centre_ray - centre_ray.dot(down) * down;  // horizontal line of sight
+  if (!(ahead.norm() > 1e-9)) return;
+  ahead.normalize();
+  const Eigen::Vector3d across = down.cross(ahead).normalized();
+  // Slopes of the box's border rays: vertical and lateral offsets per metre of depth.
+  const auto slope = [&](const Eigen::Vector3d& r, const Eigen::Vector3d& axis) {
+    return r.dot(axis) / r.dot(ahead);
+  };
+  const double top = slope(top_ray, down), bottom = slope(bottom_ray, down);
+  const double half_width_slope = 0.5 * std::abs(slope(right_ray, across) - slope(left_ray, across));
+  if (!(bottom > top) || !(centre_ray.dot(ahead) > 0)) return;
+  std::vector<double> depths;
+  for (const PointTriangulation& p : points) depths.push_back(p.position_left_rect.dot(ahead));
+  std::vector<double> sorted(depths);
+  std::nth_element(sorted.begin(), sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2),
+                   sorted.end());
+  const double z0 = sorted[sorted.size() / 2];
+  if (!(z0 > 0)) return;
+  // Lateral scale: the box's measured half-width against the shape's widest section (the
+  // target's heading and build), within +-30 %.
+  double widest = 0;
+  for (const auto& s : shape.sections) widest = std::max(widest, s.half_width_m);
+  const double scale = std::clamp(half_width_slope * z0 / widest, 0.7, 1.3);
+  const double height_m = (bottom - top) * z0;
+  const double mid = 0.5 * (top + bottom);
+  for (size_t i = 0; i < points.size(); ++i) {
+    const Eigen::Vector3d& P = points[i].position_left_rect;
+    const double x = P.dot(across), f = (bottom * z0 - P.dot(down)) / height_m;
+    double offset = 0, width = -1;
+    for (const auto& s : shape.sections) {
+      if (f < s.from || f > s.to) continue;
+      double a = s.half_width_m * scale, b = s.half_depth_m;
+      if (s.sphere) {  // the sphere's circle at this height
+        const double dz = (f - 0.5 * (s.from + s.to)) * height_m;
+        const double r2 = s.half_width_m * s.half_width_m - dz * dz;
+        if (r2 <= 0) continue;
+        a = std::sqrt(r2) * scale;
+        b = std::sqrt(r2);
+      }
+      if (a <= width) continue;  // the outermost section at this height
+      width = a;
+      offset = std::abs(x) < a ? b * std::sqrt(1.0 - (x / a) * (x / a)) : 0.0;
+    }
+    const double axis_depth = depths[i] + offset;
+    centres[i] = axis_depth * (ahead + mid * down);
+    const double d = centres[i].norm();
+    per_px[i] *= d / distances[i];
+    distances[i] = d;
+  }
+}
 
 double mean_of(const std::vector<double>& values, const std::vector<int>& indices) {
   double sum = 0;
@@ -157,8 +246,10 @@ TargetRange range_target(const RangingGeometry& geometry, const cv::Rect& box,
   // Per-point triangulation of the matches whose left pixel lies in the box.
   std::vector<PointTriangulation> points;
   std::vector<double> distances, disparities;
+  std::vector<int> source;  // index of each valid point in `matches`
   int in_box = 0;
-  for (const match::Correspondence& c : matches) {
+  for (size_t k = 0; k < matches.size(); ++k) {
+    const match::Correspondence& c = matches[k];
     if (!(c.left.x() >= inside.x - 0.5 && c.left.x() < inside.br().x - 0.5 &&
           c.left.y() >= inside.y - 0.5 && c.left.y() < inside.br().y - 0.5)) {
       continue;
@@ -168,10 +259,20 @@ TargetRange range_target(const RangingGeometry& geometry, const cv::Rect& box,
         triangulate(geometry.grid, geometry.baseline_m, c.left, c.disparity_px);
     if (!t.valid) continue;
     points.push_back(t);
+    source.push_back(static_cast<int>(k));
     distances.push_back(t.distance_m);
     disparities.push_back(c.disparity_px);
   }
   r.points_valid = static_cast<int>(points.size());
+  std::vector<Eigen::Vector3d> centres;
+  std::vector<double> per_px;
+  for (const PointTriangulation& t : points) {
+    centres.push_back(t.position_left_rect);
+    per_px.push_back(t.distance_per_px);
+  }
+  if (!options.shape.empty() && !points.empty()) {
+    move_points_to_centre(geometry, inside, options.shape, points, distances, centres, per_px);
+  }
   if (points.empty()) {
     if (r.at_image_edge) {
       return fail(r, RangeStatus::target_at_image_edge,
@@ -191,15 +292,15 @@ TargetRange range_target(const RangingGeometry& geometry, const cv::Rect& box,
                     std::to_string(options.min_points) + " needed" +
                     (r.at_image_edge ? " (the box touches the image edge)" : ""));
   }
+  for (int i : kept) r.used.push_back(source[static_cast<size_t>(i)]);
   r.distance_m = mean_of(distances, kept);
   r.disparity_px = mean_of(disparities, kept);
   Eigen::Vector3d position = Eigen::Vector3d::Zero();
   double depth = 0, distance_per_px = 0;
   for (int i : kept) {
-    const PointTriangulation& t = points[static_cast<size_t>(i)];
-    position += t.position_left_rect;
-    depth += t.depth_m;
-    distance_per_px += t.distance_per_px;
+    position += centres[static_cast<size_t>(i)];
+    depth += centres[static_cast<size_t>(i)].z();
+    distance_per_px += per_px[static_cast<size_t>(i)];
   }
   const double n = static_cast<double>(kept.size());
   r.depth_m = depth / n;

@@ -251,7 +251,7 @@ RangedTarget StereoRanger::range(const RectifiedFrames& frames, Mode mode, const
                   impl_->visible.geometry.T_ref_right_rect, right_roi);
     run(fused_left, fused_right, g);
   }
-  move_to_centre(out.range, g, options.centre_offset_m);
+  if (options.range.shape.empty()) move_to_centre(out.range, g, options.centre_offset_m);
   return out;
 }
 

@@ -963,4 +963,27 @@ std::vector<TargetTruth> SimulatedRig::truth(std::int64_t frame_index) const {
   return out;
 }
 
+RayTruth SimulatedRig::trace(const Eigen::Vector3d& origin_m, const Eigen::Vector3d& direction,
+                             std::int64_t frame_index) const {
+  const Impl& m = *impl_;
+  RayTruth out;
+  const double norm = direction.norm();
+  if (!(norm > 0.0) || !origin_m.allFinite() || !direction.allFinite()) return out;
+  const Eigen::Vector3d d = direction / norm;
+  Hit hit;
+  m.world->trace_background(origin_m, d, hit);
+  detail::World::trace_targets(m.static_targets, origin_m, d, hit);
+  detail::World::trace_targets(
+      m.world->place(true, static_cast<double>(frame_index) / m.scene.frame_rate_hz), origin_m, d,
+      hit);
+  if (hit.id == detail::kSkyId || !std::isfinite(hit.t)) return out;
+  out.hit = true;
+  out.distance_m = hit.t;
+  if (hit.id >= detail::kFirstTargetId && hit.id != detail::kNoRayId) {
+    const std::size_t i = hit.id - detail::kFirstTargetId;
+    if (i < m.world->targets().size()) out.target_id = m.world->targets()[i].spec.id;
+  }
+  return out;
+}
+
 }  // namespace thermovis::sim

@@ -77,12 +77,38 @@ enum class RangeStatus {
 };
 std::string status_name(RangeStatus status);
 
+// The shape of an upright target about its vertical axis, to range its centre (the point on the
+// axis at half its height) rather than its visible surface. Horizontal cross-sections are
+// ellipses (spheres for heads) stacked over the height, in fractions of the height from the
+// bottom. A point at lateral offset x from the axis (across the line of sight) on a section of
+// half-width a and half-depth b lies b sqrt(1 - (x/a)^2) in front of the axis: surface points
+// near the middle about b, points on the occluding contour (the silhouette, where infrared and
+// fused features concentrate) at the axis depth. An empty shape ranges the surface.
+struct TargetShape {
+  struct Section {
+    double from = 0, to = 0;   // height fractions (0 = bottom, 1 = top)
+    double half_width_m = 0;   // across the line of sight (sphere: its radius)
+    double half_depth_m = 0;   // along the line of sight
+    bool sphere = false;       // a sphere centred at mid-section (the head)
+  };
+  std::vector<Section> sections;
+  bool empty() const { return sections.empty(); }
+  // The default shapes of the simulated targets: person (legs 0.4 x 0.27 m, torso 0.5 x 0.3 m,
+  // neck, head of radius 0.1225 m, 1.75 m tall), pole (0.2 m cylinder), marker (0.1 m sphere);
+  // empty for other classes.
+  static TargetShape for_class(const std::string& target_class);
+};
+
 struct RangeOptions {
   int min_points = 3;                     // kept points needed for a distance
   double systematic_disparity_px = 0.02;  // floor of the disparity error that averaging keeps
   int bootstrap_samples = 100;            // resamples for the uncertainty
   int edge_margin_px = 5;                 // a box this close to the image border is at the edge
   int max_rejection_passes = 1;           // Eq. 34 passes (1 = the paper's)
+  // Non-empty: each point's distance is moved to the target's centre by the shape (see
+  // TargetShape) before Eq. 34, and the centre is reported. The vertical is the rig frame's +y
+  // (T_ref_left_rect: the rig is level).
+  TargetShape shape;
 };
 
 struct TargetRange {
@@ -98,6 +124,7 @@ struct TargetRange {
   int points_total = 0;                                         // correspondences given
   int points_valid = 0;                                         // of which triangulated
   int points_used = 0;                                          // kept by Eq. 34
+  std::vector<int> used;  // indices (into the matches given) of the points kept
   bool at_image_edge = false;
 };
 

@@ -56,7 +56,8 @@ struct RangerOptions {
   double min_distance_m = 2.5;  // nearest target searched (sets the maximum disparity)
   // Distance from the target's visible surface to the point the distance is reported for, along
   // the line of sight, m (0 = the surface). For a person (elliptic torso 0.3 m deep) the mean
-  // offset of the visible half to the centre is 0.15 m * pi / 4 = 0.118 m.
+  // offset of the visible half to the centre is 0.15 m * pi / 4 = 0.118 m. Used only when
+  // range.shape is empty (a shape moves each point to the centre by its own position).
   double centre_offset_m = 0.0;
 };
 

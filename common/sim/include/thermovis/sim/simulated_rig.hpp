@@ -80,6 +80,13 @@ struct StaticSetup {
   std::string note;     // why the cache was not read or not written ("" when all went well)
 };
 
+// What one ray meets in the scene (ground truth for per-point checks of matching and ranging).
+struct RayTruth {
+  bool hit = false;         // false: the ray reaches the sky
+  double distance_m = 0.0;  // along the unit ray from its origin, m (hit only)
+  std::string target_id;    // the target hit; empty for the ground, walls and sky
+};
+
 class SimulatedRig {
  public:
   // The rig must have the cameras its `visible` and `infrared` pairs name. Throws
@@ -111,6 +118,11 @@ class SimulatedRig {
 
   // Ground truth of every target at frame `frame_index`.
   std::vector<TargetTruth> truth(std::int64_t frame_index) const;
+
+  // The first surface along the ray from `origin_m` (rig frame, m) in `direction` (rig frame,
+  // need not be unit) at frame `frame_index`: the exact geometry the images are rendered from.
+  RayTruth trace(const Eigen::Vector3d& origin_m, const Eigen::Vector3d& direction,
+                 std::int64_t frame_index) const;
 
   // Pixels re-rendered for moving targets at this frame, summed over the four cameras (for
   // benchmarks and reports).
