@@ -113,8 +113,7 @@ void RangeNode::answer(const MatchArray& matches) {
         target.band() == BAND_INFRARED ? geometry_.infrared : geometry_.visible;
     range::RangeOptions options = config_.range;
     if (!config_.surface) options.shape = range::TargetShape::for_class(target.label().to_string());
-    range::TargetRange r =
-        range::range_target(geometry, box, correspondences_of(target), options);
+    range::TargetRange r = range::range_target(geometry, box, correspondences_of(target), options);
     if (!config_.surface && options.shape.empty())
       range::move_to_centre(r, geometry, range::surface_to_centre_m(target.label().to_string()));
     if (r.status != range::RangeStatus::ok || !std::isfinite(r.distance_m)) {

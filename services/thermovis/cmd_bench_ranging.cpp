@@ -84,8 +84,8 @@ struct Cell {
   // --points: the kept points against the simulator's geometry (evaluation only).
   int points = 0, on_target = 0;
   double disparity_error_sum = 0, disparity_error_sum2 = 0;  // on-target points, px
-  double off_target_error_sum = 0;          // off-target points vs the target centre's, px
-  double centre_offset_sum = 0;             // true centre distance - true point distance, m
+  double off_target_error_sum = 0;            // off-target points vs the target centre's, px
+  double centre_offset_sum = 0;               // true centre distance - true point distance, m
   std::vector<double> true_disparity_errors;  // the estimator on true disparities, m
 };
 
@@ -96,7 +96,8 @@ void evaluate_points(const sim::SimulatedRig& simulated, const sim::TargetTruth&
                      const rg::RangingGeometry& g, const rg::RangedTarget& r,
                      const rg::RangerOptions& options, Cell& cell) {
   const Eigen::Isometry3d& T = g.T_ref_left_rect;
-  const Eigen::Isometry3d& T_ref_vl = simulated.rig().camera(simulated.rig().visible.left).T_ref_cam;
+  const Eigen::Isometry3d& T_ref_vl =
+      simulated.rig().camera(simulated.rig().visible.left).T_ref_cam;
   Eigen::Vector2d centre_px;
   double centre_disparity = 0;
   const Eigen::Vector3d centre_rect = T.inverse() * (T_ref_vl * truth.position_m);
@@ -210,14 +211,12 @@ int run_bench_ranging(const Options& opt) {
         }
         // From the left visible camera's centre, as the truth (infrared ranges are from the
         // left infrared camera's).
-        const double error =
-            (T_visible_left_ref * r.range.position_m).norm() - truth.distance_m;
+        const double error = (T_visible_left_ref * r.range.position_m).norm() - truth.distance_m;
         cell.errors.push_back(error);
         cell.within_sigma += std::abs(error) <= r.range.sigma_m;
         cell.sigma_sum += r.range.sigma_m;
         if (opt.points) {
-          evaluate_points(simulated, truth, ranger.geometry(mode), r, options,
-                          cell);
+          evaluate_points(simulated, truth, ranger.geometry(mode), r, options, cell);
         }
       }
     }
@@ -267,8 +266,9 @@ int run_bench_ranging(const Options& opt) {
         row["on_target_disparity_sd_px"] =
             std::sqrt(std::max(0.0, c.disparity_error_sum2 / on - mean_e * mean_e));
         row["off_target_disparity_vs_centre_px"] =
-            c.points > c.on_target ? nlohmann::json(c.off_target_error_sum / (c.points - c.on_target))
-                                   : nlohmann::json();
+            c.points > c.on_target
+                ? nlohmann::json(c.off_target_error_sum / (c.points - c.on_target))
+                : nlohmann::json();
         row["true_centre_offset_m"] = c.centre_offset_sum / on;
         row["bias_with_true_disparities_m"] =
             c.true_disparity_errors.empty()

@@ -71,14 +71,59 @@ std::string status_name(RangeStatus status) {
   return "unknown";
 }
 
+namespace {
+
+// Eq. 34 on the kept indices: keep mean +- mean absolute deviation (max_passes = 1 is the
+// paper's single pass); a pass that would leave fewer than 3 of 3 or more points is not applied
+// (on a handful of points it rejects by chance, not by outlyingness).
+std::vector<int> eq34_passes(const std::vector<double>& values, std::vector<int> kept,
+                             int max_passes) {
+  for (int pass = 0; pass < max_passes && kept.size() > 2; ++pass) {
+    double mean = 0;
+    for (int i : kept) mean += values[static_cast<size_t>(i)];
+    mean /= static_cast<double>(kept.size());
+    double mad = 0;
+    for (int i : kept) mad += std::abs(values[static_cast<size_t>(i)] - mean);
+    mad /= static_cast<double>(kept.size());
+    std::vector<int> next;
+    next.reserve(kept.size());
+    for (int i : kept) {
+      if (std::abs(values[static_cast<size_t>(i)] - mean) <= mad) next.push_back(i);
+    }
+    if (next.size() == kept.size() || next.size() < 3) break;
+    kept.swap(next);
+  }
+  return kept;
+}
+
+}  // namespace
+
 std::vector<int> reject_outliers_eq34(const std::vector<double>& values, int max_passes) {
   std::vector<int> kept;
   if (values.empty()) return kept;
   // Gross outliers first (far background, a point near infinity): a single far value moves the
   // mean and the mean absolute deviation of Eq. 34 so much that the target's own points could be
   // the ones rejected. Median +- 5 scaled median absolute deviations (about 5 sigma for
-  // Gaussian noise) removes only those.
+  // Gaussian noise) removes only those. But when the sorted distances split into clusters
+  // (consecutive values more than 50 % apart), the nearest cluster holding at least 30 % of them
+  // is kept instead: a target occludes what lies behind it, so when a box holds as many
+  // background points (between the legs, beside the head) as target points, the target is the
+  // nearer group, not whichever the median of all falls in.
   std::vector<double> sorted(values);
+  std::sort(sorted.begin(), sorted.end());
+  const size_t need = std::max<size_t>(3, (3 * sorted.size() + 9) / 10);
+  for (size_t begin = 0; begin < sorted.size();) {
+    size_t end = begin + 1;
+    while (end < sorted.size() && sorted[end] <= 1.5 * sorted[end - 1]) ++end;
+    if (end - begin >= need && end - begin < sorted.size()) {  // the whole cluster, no more
+      const double lo = sorted[begin], hi = sorted[end - 1];
+      for (size_t i = 0; i < values.size(); ++i)
+        if (values[i] >= lo && values[i] <= hi) kept.push_back(static_cast<int>(i));
+      break;
+    }
+    begin = end;
+  }
+  if (!kept.empty()) return eq34_passes(values, std::move(kept), max_passes);
   const auto mid = sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2);
   std::nth_element(sorted.begin(), mid, sorted.end());
   const double median = *mid;
@@ -94,23 +139,7 @@ std::vector<int> reject_outliers_eq34(const std::vector<double>& values, int max
     for (size_t i = 0; i < values.size(); ++i)
       if (values[i] == median) kept.push_back(static_cast<int>(i));
   }
-  // Eq. 34: keep mean +- mean absolute deviation (max_passes = 1 is the paper's single pass).
-  for (int pass = 0; pass < max_passes && kept.size() > 2; ++pass) {
-    double mean = 0;
-    for (int i : kept) mean += values[static_cast<size_t>(i)];
-    mean /= static_cast<double>(kept.size());
-    double mad = 0;
-    for (int i : kept) mad += std::abs(values[static_cast<size_t>(i)] - mean);
-    mad /= static_cast<double>(kept.size());
-    std::vector<int> next;
-    next.reserve(kept.size());
-    for (int i : kept) {
-      if (std::abs(values[static_cast<size_t>(i)] - mean) <= mad) next.push_back(i);
-    }
-    if (next.size() == kept.size() || next.empty()) break;
-    kept.swap(next);
-  }
-  return kept;
+  return eq34_passes(values, std::move(kept), max_passes);
 }
 
 TargetShape TargetShape::for_class(const std::string& target_class) {
@@ -162,7 +191,8 @@ void move_points_to_centre(const RangingGeometry& g, const cv::Rect& box, const 
     return r.dot(axis) / r.dot(ahead);
   };
   const double top = slope(top_ray, down), bottom = slope(bottom_ray, down);
-  const double half_width_slope = 0.5 * std::abs(slope(right_ray, across) - slope(left_ray, across));
+  const double half_width_slope =
+      0.5 * std::abs(slope(right_ray, across) - slope(left_ray, across));
   if (!(bottom > top) || !(centre_ray.dot(ahead) > 0)) return;
   std::vector<double> depths;
   for (const PointTriangulation& p : points) depths.push_back(p.position_left_rect.dot(ahead));
@@ -310,16 +340,21 @@ TargetRange range_target(const RangingGeometry& geometry, const cv::Rect& box,
   if (position.norm() > 0) position *= r.distance_m / position.norm();
   r.position_m = geometry.T_ref_left_rect * position;
 
-  // Random part: bootstrap of the whole Eq. 34 estimator over the valid points (fixed seed: the
-  // same input gives the same uncertainty).
+  // Random part: bootstrap of the Eq. 34 estimator over the points that pass the gross screen
+  // (the target's own points; fixed seed: the same input gives the same uncertainty). Resampling
+  // the background points too would let a resample with half of them move the median onto the
+  // background: a few such resamples made sigma metres for a target ranged to centimetres.
   double random_sigma = 0;
-  if (points.size() >= 2 && options.bootstrap_samples > 1) {
-    std::mt19937 rng(static_cast<unsigned>(points.size()) * 2654435761u);
-    std::uniform_int_distribution<size_t> pick(0, points.size() - 1);
-    std::vector<double> sample(points.size());
+  std::vector<double> screened;
+  for (int i : reject_outliers_eq34(distances, 0))
+    screened.push_back(distances[static_cast<size_t>(i)]);
+  if (screened.size() >= 2 && options.bootstrap_samples > 1) {
+    std::mt19937 rng(static_cast<unsigned>(screened.size()) * 2654435761u);
+    std::uniform_int_distribution<size_t> pick(0, screened.size() - 1);
+    std::vector<double> sample(screened.size());
     double sum = 0, sum2 = 0;
     for (int b = 0; b < options.bootstrap_samples; ++b) {
-      for (double& v : sample) v = distances[pick(rng)];
+      for (double& v : sample) v = screened[pick(rng)];
       const double estimate =
           mean_of(sample, reject_outliers_eq34(sample, options.max_rejection_passes));
       sum += estimate;
@@ -329,11 +364,13 @@ TargetRange range_target(const RangingGeometry& geometry, const cv::Rect& box,
     random_sigma = std::sqrt(std::max(0.0, (sum2 - sum * sum / B) / (B - 1)));
     // Small samples: the bootstrap spread is biased low by sqrt((n-1)/n), and a one-sigma
     // interval needs Student's t_{0.84}(n-1) ~ 1 + 0.57/(n-1) to hold 68 %.
-    const double nv = static_cast<double>(points.size());
+    const double nv = static_cast<double>(screened.size());
     random_sigma *= std::sqrt(nv / (nv - 1)) * (1.0 + 0.57 / (nv - 1));
   }
   const double systematic_sigma = distance_per_px * options.systematic_disparity_px;
-  r.sigma_m = std::hypot(random_sigma, systematic_sigma);
+  const double shape_sigma = options.shape.empty() ? 0.0 : options.shape_sigma_m;
+  r.sigma_m = std::sqrt(random_sigma * random_sigma + systematic_sigma * systematic_sigma +
+                        shape_sigma * shape_sigma);
   r.disparity_sigma_px = distance_per_px > 0 ? r.sigma_m / distance_per_px : TargetRange::nan;
   r.status = RangeStatus::ok;
   return r;

@@ -86,10 +86,10 @@ std::string status_name(RangeStatus status);
 // fused features concentrate) at the axis depth. An empty shape ranges the surface.
 struct TargetShape {
   struct Section {
-    double from = 0, to = 0;   // height fractions (0 = bottom, 1 = top)
-    double half_width_m = 0;   // across the line of sight (sphere: its radius)
-    double half_depth_m = 0;   // along the line of sight
-    bool sphere = false;       // a sphere centred at mid-section (the head)
+    double from = 0, to = 0;  // height fractions (0 = bottom, 1 = top)
+    double half_width_m = 0;  // across the line of sight (sphere: its radius)
+    double half_depth_m = 0;  // along the line of sight
+    bool sphere = false;      // a sphere centred at mid-section (the head)
   };
   std::vector<Section> sections;
   bool empty() const { return sections.empty(); }
@@ -109,6 +109,9 @@ struct RangeOptions {
   // TargetShape) before Eq. 34, and the centre is reported. The vertical is the rig frame's +y
   // (T_ref_left_rect: the rig is level).
   TargetShape shape;
+  // One-sigma error of the shape's centre (build, heading, pose of the real target against the
+  // model), m; added to the uncertainty when a shape is used.
+  double shape_sigma_m = 0.03;
 };
 
 struct TargetRange {
