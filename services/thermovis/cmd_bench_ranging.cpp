@@ -292,13 +292,14 @@ int run_bench_ranging(const Options& opt) {
             << "paper" << std::setw(11) << "Eq2@0.1px"
             << "\n"
             << std::fixed;
+  // A number with `p` decimals, "-" for null.
+  auto num = [](const nlohmann::json& v, int p) {
+    std::ostringstream s;
+    if (v.is_null()) return std::string("-");
+    s << std::fixed << std::setprecision(p) << v.get<double>();
+    return s.str();
+  };
   for (const auto& r : rows) {
-    auto num = [](const nlohmann::json& v, int p) {
-      std::ostringstream s;
-      if (v.is_null()) return std::string("-");
-      s << std::fixed << std::setprecision(p) << v.get<double>();
-      return s.str();
-    };
     std::cout << std::setw(7) << std::setprecision(0) << r["distance_m"].get<double>()
               << std::setw(10) << r["mode"].get<std::string>() << std::setw(8)
               << (std::to_string(r["ranged"].get<int>()) + "/" + std::to_string(opt.trials))
@@ -321,12 +322,6 @@ int run_bench_ranging(const Options& opt) {
               << "\n";
     for (const auto& r : rows) {
       if (!r.contains("points_per_target")) continue;
-      auto num = [](const nlohmann::json& v, int p) {
-        std::ostringstream s;
-        if (v.is_null()) return std::string("-");
-        s << std::fixed << std::setprecision(p) << v.get<double>();
-        return s.str();
-      };
       std::cout << std::setw(7) << std::setprecision(0) << r["distance_m"].get<double>()
                 << std::setw(10) << r["mode"].get<std::string>() << std::setw(8)
                 << num(r["points_per_target"], 0) << std::setw(8) << num(r["on_target_fraction"], 2)
