@@ -317,7 +317,7 @@ int run_bench_ranging(const Options& opt) {
                  "(m)\n";
     std::cout << std::setw(7) << "dist m" << std::setw(10) << "mode" << std::setw(8) << "pts"
               << std::setw(8) << "on" << std::setw(10) << "dbias" << std::setw(9) << "dsd"
-              << std::setw(10) << "off-d" << std::setw(10) << "offset" << std::setw(11)
+              << std::setw(10) << "off-d" << std::setw(10) << "offset" << std::setw(13)
               << "true-d bias"
               << "\n";
     for (const auto& r : rows) {
@@ -328,7 +328,7 @@ int run_bench_ranging(const Options& opt) {
                 << std::setw(10) << num(r["on_target_disparity_bias_px"], 3) << std::setw(9)
                 << num(r["on_target_disparity_sd_px"], 3) << std::setw(10)
                 << num(r["off_target_disparity_vs_centre_px"], 3) << std::setw(10)
-                << num(r["true_centre_offset_m"], 3) << std::setw(11)
+                << num(r["true_centre_offset_m"], 3) << std::setw(13)
                 << num(r["bias_with_true_disparities_m"], 3) << "\n";
     }
   }
