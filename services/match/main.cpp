@@ -30,6 +30,11 @@ int main(int argc, char** argv) {
                  "nearest target searched (sets the largest disparity)")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  app.add_option("--frames-kept", config.frames_kept,
+                 "rectified frames kept per band for detections still to come (cover the "
+                 "detector's latency: at 50 Hz, 4 frames are 80 ms)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 64));
   app.add_option("--deadline-ms", deadline_ms, "DEADLINE QoS period of the frame topic")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);

@@ -212,6 +212,12 @@ TEST(Pipeline, ASlowStageDropsOldFramesInsteadOfQueueing) {
   const auto at = manifest.find(detect);
   ASSERT_NE(at, std::string::npos);
   manifest.insert(at + detect.size(), "\"--debug-delay-ms\", \"150\", ");
+  // Match keeps enough frames for detections that come 150 ms and more after their frame (its
+  // default 4 cover 80 ms at 50 Hz: on a loaded machine no detection found its frame).
+  const std::string match = "\"${bin}/thermovis-match\", ";
+  const auto match_at = manifest.find(match);
+  ASSERT_NE(match_at, std::string::npos);
+  manifest.insert(match_at + match.size(), "\"--frames-kept\", \"24\", ");
   std::ofstream(dir / "slow.yaml") << manifest;
 
   ChildProcess supervisor(thermovis::test::supervisor_command(
