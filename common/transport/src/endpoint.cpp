@@ -2,6 +2,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <iostream>
 #include <stdexcept>
 #include <thread>
 #include <utility>
@@ -107,16 +108,21 @@ WriterBase::WriterBase(Participant& participant, const std::string& topic,
       qos_(qos),
       counters_(std::make_shared<TopicCounters>()),
       matched_(std::make_shared<MatchedCount>()),
-      listener_(std::make_unique<Listener>(counters_, matched_)) {
+      listener_(std::make_unique<Listener>(counters_, matched_)),
+      type_(type) {
   if (qos.kind == TopicKind::frame && !type->is_plain()) {
     throw std::invalid_argument("frame topic '" + topic + "': type " + type.get_type_name() +
                                 " is not plain, it cannot be delivered by data-sharing");
   }
-  dds::Topic* dds_topic = participant_->topic(topic, type);
+  create();
+}
+
+void WriterBase::create() {
+  dds::Topic* dds_topic = participant_->topic(topic_, type_);
   const dds::StatusMask mask = dds::StatusMask::publication_matched()
                                << dds::StatusMask::offered_deadline_missed();
-  dds::DataWriterQos dds_qos = writer_qos(qos);
-  if (qos.kind == TopicKind::frame && !participant_->frame_flow_controller.empty()) {
+  dds::DataWriterQos dds_qos = writer_qos(qos_);
+  if (qos_.kind == TopicKind::frame && !participant_->frame_flow_controller.empty()) {
     // Profiles for other hosts (udp.xml): frames leave through the participant's bandwidth
     // limit, from the flow controller's thread, so a 12.5 MB sample is spread over time
     // instead of overflowing the receiver's socket buffer.
@@ -125,11 +131,28 @@ WriterBase::WriterBase(Participant& participant, const std::string& topic,
   }
   writer_ = participant_->publisher->create_datawriter(dds_topic, dds_qos, listener_.get(), mask);
   if (writer_ == nullptr) {
-    throw std::runtime_error("cannot create DDS writer on '" + topic + "' (see the Fast DDS log)");
+    throw std::runtime_error("cannot create DDS writer on '" + topic_ + "' (see the Fast DDS log)");
   }
 }
 
-WriterBase::~WriterBase() {
+WriterBase::~WriterBase() { destroy(); }
+
+void WriterBase::recreate() {
+  if (writer_ != nullptr) {
+    wait_for_frame_drain();
+    writer_->set_listener(nullptr);
+    if (participant_->publisher->delete_datawriter(writer_) != ReturnCode_t::RETCODE_OK) {
+      writer_->set_listener(listener_.get());
+      throw std::runtime_error("cannot recreate the writer of '" + topic_ +
+                               "': this process still holds samples loaned from it");
+    }
+    writer_ = nullptr;
+    matched_->set(0, *counters_);
+  }
+  create();
+}
+
+void WriterBase::wait_for_frame_drain() const {
   // A data-sharing reader still holding a loan of this writer's last frames when the writer is
   // deleted crashes when it returns the loan: Fast DDS 2.9 hands it back through the pool object
   // it freed at the unmatch (SampleLoanManager::return_loan -> IPayloadPool::release_payload).
@@ -137,19 +160,24 @@ WriterBase::~WriterBase() {
   // process's last frame to finish with it (the first writer deleted waits, the others find
   // the time passed). Killed processes do not get here; their readers drop them only at the end
   // of the lease (10 s), long after any loan is returned.
-  if (qos_.kind == TopicKind::frame) {
-    dds::PublicationMatchedStatus status;
-    const std::int64_t last = last_frame_write_ns.load();
-    if (last != 0 && writer_->get_publication_matched_status(status) == ReturnCode_t::RETCODE_OK &&
-        status.current_count > 0) {
-      const std::int64_t wait_ns =
-          last + std::chrono::nanoseconds(kFrameDrain).count() - steady_now_ns();
-      if (wait_ns > 0) std::this_thread::sleep_for(std::chrono::nanoseconds(wait_ns));
-    }
+  if (qos_.kind != TopicKind::frame) return;
+  dds::PublicationMatchedStatus status;
+  const std::int64_t last = last_frame_write_ns.load();
+  if (last != 0 && writer_->get_publication_matched_status(status) == ReturnCode_t::RETCODE_OK &&
+      status.current_count > 0) {
+    const std::int64_t wait_ns =
+        last + std::chrono::nanoseconds(kFrameDrain).count() - steady_now_ns();
+    if (wait_ns > 0) std::this_thread::sleep_for(std::chrono::nanoseconds(wait_ns));
   }
+}
+
+void WriterBase::destroy() noexcept {
+  if (writer_ == nullptr) return;
+  wait_for_frame_drain();
   // Stop callbacks before the listener goes, then delete the writer.
   writer_->set_listener(nullptr);
   participant_->publisher->delete_datawriter(writer_);
+  writer_ = nullptr;
 }
 
 bool WriterBase::wait_for_readers(std::uint32_t count, std::chrono::milliseconds timeout) {
@@ -158,13 +186,31 @@ bool WriterBase::wait_for_readers(std::uint32_t count, std::chrono::milliseconds
 
 void* WriterBase::loan_raw() {
   void* sample = nullptr;
-  const ReturnCode_t code = writer_->loan_sample(sample);
+  ReturnCode_t code = writer_->loan_sample(sample);
+  if (code == ReturnCode_t::RETCODE_OUT_OF_RESOURCES) {
+    // Readers return a frame's slot within kFrameDrain. A pool refused for longer is held by
+    // something that will not give it back (Fast DDS 2.9 has left a writer's pool stuck after a
+    // reader joined it mid-stream, every later frame dropped): a new writer has a fresh pool.
+    const std::int64_t now = steady_now_ns();
+    if (pool_exhausted_since_ns_ == 0) pool_exhausted_since_ns_ = now;
+    const auto stalled = std::chrono::nanoseconds(now - pool_exhausted_since_ns_);
+    if (stalled >= kStalledPoolRecovery) {
+      recreate();
+      std::cerr << "transport: every slot of the '" << topic_ << "' frame pool refused for "
+                << std::chrono::duration_cast<std::chrono::milliseconds>(stalled).count()
+                << " ms: writer recreated" << std::endl;
+      ++pool_recoveries_;
+      pool_exhausted_since_ns_ = 0;
+      code = writer_->loan_sample(sample);
+    }
+  }
   if (code != ReturnCode_t::RETCODE_OK) {
     throw std::runtime_error("cannot loan a sample on '" + topic_ + "': " + return_code_name(code) +
                              (code == ReturnCode_t::RETCODE_OUT_OF_RESOURCES
                                   ? " (every pool slot is loaned or unread)"
                                   : ""));
   }
+  pool_exhausted_since_ns_ = 0;
   return sample;
 }
 

@@ -16,6 +16,11 @@ TopicQos event_topic_qos(std::int32_t depth) { return {TopicKind::event, depth, 
 
 TopicQos state_topic_qos() { return {TopicKind::state, 1, 0, {}}; }
 
+TopicQos observer_qos(TopicQos qos) {
+  qos.deadline = std::chrono::nanoseconds(0);
+  return qos;
+}
+
 void validate(const TopicQos& qos) {
   if (qos.kind == TopicKind::frame && (qos.depth < 2 || qos.depth > 4)) {
     throw std::invalid_argument("frame topic history depth " + std::to_string(qos.depth) +

@@ -39,6 +39,12 @@ class MatchedCount {
 // saturated machine). See ~WriterBase.
 inline constexpr std::chrono::milliseconds kFrameDrain{500};
 
+// How long a frame writer's pool may stay exhausted (every loan refused) before the writer is
+// recreated: longer than any reader legitimately keeps the pool's slots (kFrameDrain), short
+// enough that a pool some reader left stuck costs the pipeline about a second, not the rest of
+// the run. See WriterBase::loan_raw.
+inline constexpr std::chrono::milliseconds kStalledPoolRecovery{1000};
+
 class WriterBase {
  public:
   WriterBase(Participant& participant, const std::string& topic,
@@ -53,6 +59,12 @@ class WriterBase {
   const std::string& topic_name() const { return topic_; }
   const TopicQos& qos() const { return qos_; }
   eprosima::fastdds::dds::DataWriter& native() { return *writer_; }
+  // Deletes the DDS writer and creates it anew (a new GUID, a new pool; readers match it again).
+  // Throws std::runtime_error when the old writer cannot be deleted (this process still holds
+  // loans from it) or the new one cannot be created.
+  void recreate();
+  // Times loan_raw() recreated the writer because its pool stayed exhausted.
+  std::uint64_t pool_recoveries() const { return pool_recoveries_; }
 
  protected:
   // A sample buffer inside the writer's pool (the data-sharing segment for plain types).
@@ -70,7 +82,14 @@ class WriterBase {
   std::shared_ptr<TopicCounters> counters_;
   std::shared_ptr<MatchedCount> matched_;
   std::unique_ptr<Listener> listener_;
+  eprosima::fastdds::dds::TypeSupport type_;
   eprosima::fastdds::dds::DataWriter* writer_ = nullptr;
+  std::int64_t pool_exhausted_since_ns_ = 0;  // first refused loan of the current run; 0: none
+  std::uint64_t pool_recoveries_ = 0;
+
+  void create();
+  void destroy() noexcept;
+  void wait_for_frame_drain() const;
 };
 
 class ReaderBase {

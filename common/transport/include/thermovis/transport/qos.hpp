@@ -36,6 +36,11 @@ TopicQos frame_topic_qos(std::chrono::nanoseconds deadline = kDefaultFrameDeadli
                          std::int32_t depth = 2, std::int32_t max_readers = 2);
 TopicQos event_topic_qos(std::int32_t depth = 8);
 TopicQos state_topic_qos();
+// The reader QoS of an observer of `qos`'s topic (recorder, viewer, ROS 2 bridge: not part of the
+// pipeline): no DEADLINE requested, so it matches any writer's offer and its rate is not watched.
+// Still RELIABLE: BEST_EFFORT data-sharing readers left a writer's pool stuck when killed (see
+// kStalledPoolRecovery).
+TopicQos observer_qos(TopicQos qos);
 
 // Throws std::invalid_argument naming the bad field (depth out of range, negative deadline...).
 void validate(const TopicQos& qos);
