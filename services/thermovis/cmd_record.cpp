@@ -34,6 +34,7 @@ struct Options {
   std::string compression = "zstd";
   int zstd_level = 1;
   double buffer_mb = 1024.0;
+  double wait_s = 10.0;
   bool json = false;
 };
 
@@ -113,6 +114,19 @@ int run_record(const Options& opt) {
     }
     channels.push_back(writer.add_channel(schema->second, topic.topic, "cdr"));
     taps.push_back(tv::cli::make_tap(*participant, topic));
+  }
+
+  // The writers first: --seconds counts from when every topic has one (on a loaded machine
+  // discovery can take seconds), so a timed recording is not spent waiting for them.
+  const auto wait_until = std::chrono::steady_clock::now() +
+                          std::chrono::milliseconds(static_cast<std::int64_t>(opt.wait_s * 1000));
+  for (std::size_t i = 0; i < taps.size(); ++i) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+        wait_until - std::chrono::steady_clock::now());
+    if (!taps[i]->wait_for_writers(std::max(left, std::chrono::milliseconds(0))) &&
+        !tv::node::stop_requested())
+      std::cerr << "thermovis record: no writer on " << topics[i].topic << " after " << opt.wait_s
+                << " s; recording anyway" << std::endl;
   }
 
   SampleQueue queue(static_cast<std::size_t>(opt.buffer_mb * 1024 * 1024));
@@ -231,6 +245,10 @@ THERMOVIS_COMMAND(
                      "dropped and counted")
           ->capture_default_str()
           ->check(CLI::PositiveNumber);
+      app.add_option("--wait", opt->wait_s,
+                     "wait this long for a writer on every topic before recording starts, s")
+          ->capture_default_str()
+          ->check(CLI::NonNegativeNumber);
       app.add_flag("--json", opt->json, "print the summary as one JSON object");
       return [opt] { return run_record(*opt); };
     });

@@ -163,10 +163,13 @@ class Tap final : public TopicTap {
     return samples.size();
   }
 
+  bool wait_for_writers(std::chrono::milliseconds timeout) override {
+    return reader_.wait_for_writers(1, timeout);
+  }
+
  private:
   static transport::TopicQos tap_qos(const RecordableTopic& topic) {
-    transport::TopicQos qos = topic.qos;
-    qos.deadline = std::chrono::nanoseconds(0);  // requests none: matches any writer's offer
+    transport::TopicQos qos = transport::observer_qos(topic.qos);
     if (qos.kind == transport::TopicKind::event) qos.depth = 64;  // rides out a slow disk
     return qos;
   }

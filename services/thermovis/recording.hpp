@@ -51,6 +51,8 @@ class TopicTap {
   // Waits up to `timeout` for samples and hands each to `sink`. Returns the number taken.
   virtual std::size_t poll(std::chrono::milliseconds timeout,
                            const std::function<void(TappedSample&&)>& sink) = 0;
+  // True once a writer of the topic has matched this tap (false on timeout).
+  virtual bool wait_for_writers(std::chrono::milliseconds timeout) = 0;
 };
 std::unique_ptr<TopicTap> make_tap(transport::Participant& participant,
                                    const RecordableTopic& topic);

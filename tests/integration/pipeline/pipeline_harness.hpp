@@ -45,6 +45,20 @@ inline std::vector<std::string> supervisor_command(const std::filesystem::path& 
   return argv;
 }
 
+// The services' logs the supervisor of supervisor_command(dir, ...) wrote, each headed by its
+// name: what a failed pipeline test prints.
+inline std::string service_logs(const std::filesystem::path& dir) {
+  std::string all;
+  std::error_code ec;
+  for (const auto& entry : std::filesystem::directory_iterator(dir / "logs", ec)) {
+    std::ifstream in(entry.path());
+    std::stringstream text;
+    text << in.rdbuf();
+    all += "---- " + entry.path().filename().string() + "\n" + text.str();
+  }
+  return all;
+}
+
 // The last line of a log that is a JSON object (the supervisor's --json summary); null if none.
 inline nlohmann::json last_json_line(const std::string& log) {
   std::istringstream lines(log);

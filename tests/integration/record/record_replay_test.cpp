@@ -118,8 +118,8 @@ TEST(RecordReplay, ReplayedCapturesGiveTheRangesOfTheLiveRun) {
   const auto file = dir / "run.mcap";
 
   // 1. The live pipeline at 5 Hz (the recorder copies and compresses 15.5 MB per capture: at 10 Hz
-  // on a loaded 2-core machine it missed most visible frames), recorded for 20 s once ranges flow
-  // (the recorder may match the writers seconds after it starts on a loaded machine).
+  // on a loaded 2-core machine it missed most visible frames), recorded for 10 s once ranges flow
+  // and the recorder has matched the writers of its three topics (--wait).
   std::ofstream(dir / "live.yaml") << manifest_with_bridge_rate("5");
   RangesBySeq live_received;
   {
@@ -135,10 +135,10 @@ TEST(RecordReplay, ReplayedCapturesGiveTheRangesOfTheLiveRun) {
     ChildProcess record({thermovis, "record", "--out", file.string(), "--topics",
                          std::string(topics::kVisibleFrames) + "," + topics::kInfraredFrames + "," +
                              topics::kRanges,
-                         "--seconds", "20", "--domain", domain_arg, "--profile",
+                         "--seconds", "10", "--wait", "60", "--domain", domain_arg, "--profile",
                          tv::transport::kLoopbackProfile, "--json"},
                         dir / "record.log");
-    const auto recording_ends = Clock::now() + 60s;
+    const auto recording_ends = Clock::now() + 90s;
     while (!record.poll() && Clock::now() < recording_ends) {
       ranges.wait_for_data(100ms);
       auto samples = ranges.take();
@@ -150,8 +150,9 @@ TEST(RecordReplay, ReplayedCapturesGiveTheRangesOfTheLiveRun) {
     std::cout << "record: " << summary.dump() << "\n";
     RecordProperty("record_mb_per_s", static_cast<int>(summary["record_mb_per_s"].get<double>()));
     RecordProperty("record_file_mb", static_cast<int>(summary["file_mb"].get<double>()));
-    EXPECT_GT(summary["topics"][topics::kVisibleFrames]["recorded"].get<int>(), 20);
     stop(supervisor);
+    EXPECT_GT(summary["topics"][topics::kVisibleFrames]["recorded"].get<int>(), 20)
+        << record.log() << supervisor.log() << tv::test::service_logs(dir);
   }
 
   // 2. The file is well-formed MCAP; its ranges and captures, decoded.
