@@ -8,9 +8,16 @@ function(thermovis_add_gtest)
   add_executable(${ARG_NAME} ${ARG_SOURCES})
   target_link_libraries(${ARG_NAME} PRIVATE ${ARG_LIBS} thermovis::test_support
     GTest::gtest GTest::gtest_main thermovis::warnings)
+  # Tests that start a whole pipeline (integration, lab, soak) never run at the same time as one
+  # another: one pipeline saturates this project's 2-core reference machine, and two at once
+  # would measure the machine, not the code. Unit tests still run beside them.
+  set(lock "")
+  if(ARG_LABEL MATCHES "^(integration|lab|soak)$")
+    set(lock RESOURCE_LOCK pipeline)
+  endif()
   gtest_discover_tests(${ARG_NAME}
     DISCOVERY_TIMEOUT 60
-    PROPERTIES LABELS ${ARG_LABEL} TIMEOUT ${ARG_TIMEOUT}
+    PROPERTIES LABELS ${ARG_LABEL} TIMEOUT ${ARG_TIMEOUT} ${lock}
                # XDG_CACHE_HOME: the simulated bridge's set-up cache (--sim-cache auto, ~200 MB
                # a file) stays in the build tree, shared by the tests, not in the user's home.
                ENVIRONMENT "THERMOVIS_BIN_DIR=${PROJECT_BINARY_DIR}/bin;THERMOVIS_SOURCE_DIR=${PROJECT_SOURCE_DIR};XDG_CACHE_HOME=${PROJECT_BINARY_DIR}/test-cache")

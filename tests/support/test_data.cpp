@@ -4,10 +4,15 @@
 #include <sys/file.h>
 #include <unistd.h>
 
+#include <gtest/gtest.h>
+
 #include <cstdlib>
+#include <iostream>
+#include <mutex>
 #include <random>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 namespace thermovis::test {
 
@@ -37,12 +42,56 @@ std::filesystem::path bin_dir() {
   return THERMOVIS_BIN_DIR;
 }
 
+namespace {
+
+// Removes the folders temp_dir() made for a test when it ends: a passed or skipped test's go, a
+// failed test's stay for inspection (their paths are printed).
+class TempDirCleaner final : public ::testing::EmptyTestEventListener {
+ public:
+  void add(const std::filesystem::path& dir) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    dirs_.push_back(dir);
+  }
+  void OnTestEnd(const ::testing::TestInfo& info) override {
+    std::vector<std::filesystem::path> dirs;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      dirs.swap(dirs_);
+    }
+    for (const auto& dir : dirs) {
+      if (info.result()->Failed()) {
+        std::cout << "test folder kept for inspection: " << dir.string() << std::endl;
+        continue;
+      }
+      std::error_code ignored;
+      std::filesystem::remove_all(dir, ignored);
+    }
+  }
+
+ private:
+  std::mutex mutex_;
+  std::vector<std::filesystem::path> dirs_;
+};
+
+TempDirCleaner& temp_dir_cleaner() {
+  // Registered on first use, inside a running test; GoogleTest owns (and deletes) it.
+  static TempDirCleaner* cleaner = [] {
+    auto* c = new TempDirCleaner;
+    ::testing::UnitTest::GetInstance()->listeners().Append(c);
+    return c;
+  }();
+  return *cleaner;
+}
+
+}  // namespace
+
 std::filesystem::path temp_dir(const std::string& name) {
   std::random_device rd;
   const std::filesystem::path dir =
       std::filesystem::temp_directory_path() / ("thermovis-" + name + "-" + std::to_string(rd()));
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
+  temp_dir_cleaner().add(dir);
   return dir;
 }
 

@@ -18,7 +18,8 @@ std::filesystem::path source_root();
 // The folder holding the built executables (build/bin).
 std::filesystem::path bin_dir();
 
-// A fresh, empty temporary folder for one test, removed by the caller or at exit of the test.
+// A fresh, empty temporary folder for one test, removed when the test ends unless it failed (a
+// failed test's folders are kept, and named on stdout, for inspection).
 std::filesystem::path temp_dir(const std::string& name);
 
 // A DDS domain id no other test process on this machine holds: the first of 20..232 (starting at
