@@ -163,9 +163,11 @@ cv::Rect StereoRanger::raw_box_to_rectified(Mode mode, double x_min, double y_mi
   return raw_box_on_grid(cam, g.T_ref_left_rect, g.grid, x_min, y_min, x_max, y_max);
 }
 
-cv::Rect StereoRanger::infrared_box_to_visible(const cv::Rect& box) const {
-  const RangingGeometry& from = impl_->infrared_geometry;
-  const RangingGeometry& to = impl_->visible_geometry;
+namespace {
+
+// A box of `from`'s left rectified grid on `to`'s (rays at infinity), the bounding box of its
+// border's rays; empty when none of them reaches `to`'s grid.
+cv::Rect box_between(const RangingGeometry& from, const RangingGeometry& to, const cv::Rect& box) {
   const Eigen::Matrix3d R =
       to.T_ref_left_rect.rotation().transpose() * from.T_ref_left_rect.rotation();
   double lo_x = 1e30, lo_y = 1e30, hi_x = -1e30, hi_y = -1e30;
@@ -192,6 +194,16 @@ cv::Rect StereoRanger::infrared_box_to_visible(const cv::Rect& box) const {
           static_cast<int>(std::lround(hi_y + 0.5)) - y};
 }
 
+}  // namespace
+
+cv::Rect StereoRanger::infrared_box_to_visible(const cv::Rect& box) const {
+  return box_between(impl_->infrared_geometry, impl_->visible_geometry, box);
+}
+
+cv::Rect StereoRanger::visible_box_to_infrared(const cv::Rect& box) const {
+  return box_between(impl_->visible_geometry, impl_->infrared_geometry, box);
+}
+
 RangedTarget StereoRanger::range(const RectifiedFrames& frames, Mode mode, const cv::Rect& box,
                                  const RangerOptions& options) const {
   RangedTarget out;
@@ -210,9 +222,22 @@ RangedTarget StereoRanger::range(const RectifiedFrames& frames, Mode mode, const
   } else if (mode == Mode::infrared) {
     run(frames.infrared_left, frames.infrared_right, g);
   } else {
-    // Registration distance: the target's own, measured on the visible pair first.
+    // Registration distance: the target's own, measured on the visible pair first, else on the
+    // infrared pair (at night, or a box with too little visible texture); infinity when neither
+    // ranges it (the infrared content then keeps the infrared cameras' offset as disparity).
     run(frames.visible_left, frames.visible_right, g);
-    const double registration = out.range.status == RangeStatus::ok ? out.range.distance_m : 0.0;
+    double registration = out.range.status == RangeStatus::ok ? out.range.distance_m : 0.0;
+    if (registration == 0.0 && !frames.infrared_left.empty()) {
+      const RangingGeometry& ir = geometry(Mode::infrared);
+      const cv::Rect ir_box = visible_box_to_infrared(box);
+      match::MatchOptions ir_mo = mo;
+      ir_mo.max_disparity_px = max_disparity_for(ir, options.min_distance_m);
+      const TargetRange ir_range = range_target(
+          ir, ir_box,
+          match::match_box(frames.infrared_left, frames.infrared_right, ir_box, ir_mo).matches,
+          options.range);
+      if (ir_range.status == RangeStatus::ok) registration = ir_range.distance_m;
+    }
     out.registration_distance_m = registration;
     const camera::Rig& rig = impl_->rig;
     const cv::Rect image(0, 0, frames.visible_left.cols, frames.visible_left.rows);

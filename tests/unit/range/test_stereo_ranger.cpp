@@ -70,3 +70,48 @@ TEST(StereoRanger, BadFramesAreClearErrors) {
   EXPECT_THROW(ranger.rectify(raw), std::invalid_argument);  // wrong size
   EXPECT_THROW(rg::parse_mode("thermal"), std::invalid_argument);
 }
+
+// Fused ranging at night: the visible pair gives no distance for most people, so the infrared is
+// registered at the distance the infrared pair measures; the fused pair then ranges them.
+TEST(StereoRanger, FusedRangingAtNightRegistersTheInfraredAtItsOwnDistance) {
+  const auto rig = thermovis::runtime::load_rig(thermovis::runtime::default_rig_path());
+  const auto scene =
+      thermovis::runtime::load_scene(thermovis::runtime::shipped_scene_path("night"));
+  const sim::SimulatedRig simulated(rig, scene, 5);
+  sim::FrameSet frames = simulated.allocate();
+  simulated.render(0, frames);
+  const rg::StereoRanger ranger(rig);
+  const rg::RectifiedFrames rectified =
+      ranger.rectify({frames[sim::Slot::visible_left], frames[sim::Slot::visible_right],
+                      frames[sim::Slot::infrared_left], frames[sim::Slot::infrared_right]});
+  rg::RangerOptions options;
+  options.centre_offset_m = rg::surface_to_centre_m("person");
+  int people = 0, unranged_visible = 0, fused_ranged = 0;
+  for (const auto& t : simulated.truth(0)) {
+    if (t.cls != sim::TargetClass::person || t.distance_m > 21) continue;
+    const auto& b = t.boxes[static_cast<size_t>(sim::Slot::visible_left)];
+    if (!b.has_value()) continue;
+    ++people;
+    const cv::Rect box =
+        ranger.raw_box_to_rectified(rg::Mode::visible, b->x_min, b->y_min, b->x_max, b->y_max);
+    const rg::RangedTarget visible = ranger.range(rectified, rg::Mode::visible, box, options);
+    const rg::RangedTarget fused = ranger.range(rectified, rg::Mode::fused, box, options);
+    std::cout << t.id << " at " << t.distance_m << " m: visible "
+              << (visible.range.status == rg::RangeStatus::ok
+                      ? std::to_string(visible.range.distance_m)
+                      : visible.range.message)
+              << ", fused "
+              << (fused.range.status == rg::RangeStatus::ok ? std::to_string(fused.range.distance_m)
+                                                            : fused.range.message)
+              << " (registered at " << fused.registration_distance_m << " m)\n";
+    if (visible.range.status != rg::RangeStatus::ok) ++unranged_visible;
+    if (fused.range.status != rg::RangeStatus::ok) continue;
+    ++fused_ranged;
+    // The infrared was registered at the target's own distance, not at infinity.
+    EXPECT_NEAR(fused.registration_distance_m, t.distance_m, 0.1 * t.distance_m) << t.id;
+    EXPECT_LT(std::abs(fused.range.distance_m - t.distance_m), 0.05 * t.distance_m + 0.1) << t.id;
+  }
+  ASSERT_GT(people, 0);
+  EXPECT_GT(unranged_visible, 0) << "the night scene is lit enough for visible ranging";
+  EXPECT_GE(fused_ranged, people - 1);
+}

@@ -100,6 +100,8 @@ class StereoRanger {
   // A box of the infrared left rectified grid on the visible left rectified grid (rays at
   // infinity: the infrared camera's offset shifts a target at L by offset / L rad).
   cv::Rect infrared_box_to_visible(const cv::Rect& box) const;
+  // The reverse: a box of the visible left rectified grid on the infrared one.
+  cv::Rect visible_box_to_infrared(const cv::Rect& box) const;
 
   const RangingGeometry& geometry(Mode mode) const;
 
