@@ -77,10 +77,11 @@ void DetectNode::run() {
     try {
       const DetectionArray out = detect(frames[newest]);
       if (!frames.still_valid(newest)) {
-        // The writer reused the sample while it was read: the detections may mix two frames,
-        // so they are not published.
-        throw node::FrameError("frame " + std::to_string(frames[newest].seq()) +
-                               " was overwritten while it was processed");
+        // The writer reused the sample while it was read (this stage fell a pool's length
+        // behind): the detections may mix two frames, so they are not published. A drop, not
+        // bad input: nothing was wrong with the frame.
+        ++stats_.dropped;
+        continue;
       }
       out_.write(out);
       stats_.detections += out.detections().size();

@@ -50,7 +50,8 @@ int main(int argc, char** argv) {
     matcher.run();
     const auto stats = matcher.stats();
     std::cerr << common.service << ": answered " << stats.processed << ", without frame "
-              << stats.no_frame << ", bad " << stats.bad << ", points " << stats.points
-              << ", on infrared " << stats.infrared_targets << "\n";
+              << stats.no_frame << ", bad " << stats.bad << ", overwritten while copied "
+              << stats.overwritten << ", points " << stats.points << ", on infrared "
+              << stats.infrared_targets << "\n";
   });
 }

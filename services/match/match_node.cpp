@@ -165,8 +165,10 @@ void MatchNode::take_frames(BandInput& input) {
                                                             : "16-bit pixels in an 8-bit band"));
       }
       if (!frames.still_valid(i)) {
-        throw node::FrameError("frame " + std::to_string(pair.seq) +
-                               " was overwritten while it was copied");
+        // The writer reused the sample while it was copied: a torn copy, dropped (not bad
+        // input; detections for it are answered "without frame").
+        ++stats_.overwritten;
+        continue;
       }
       input.pairs.push_back(std::move(pair));
       while (input.pairs.size() > config_.frames_kept) input.pairs.pop_front();

@@ -52,6 +52,7 @@ struct MatchStats {
   std::uint64_t processed = 0;         // detection arrays answered
   std::uint64_t no_frame = 0;          // detection arrays whose frames were not (or no longer) here
   std::uint64_t bad = 0;               // frames or detections rejected
+  std::uint64_t overwritten = 0;       // frames reused by their writer while copied (dropped)
   std::uint64_t points = 0;            // correspondences published
   std::uint64_t infrared_targets = 0;  // targets matched on the infrared pair
 };
