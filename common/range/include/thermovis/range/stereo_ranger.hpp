@@ -6,8 +6,9 @@
 // Modes:
 //  - visible: the visible pair on its rectified grid, matched on the grey image;
 //  - infrared: the infrared pair on its own rectified grid, 16-bit counts through the AGC;
-//  - fused: the visible pair's grid, where each eye's image is its visible image fused with its
-//    infrared camera registered onto it. Registration assumes a distance; with a registration at
+//  - fused: the visible pair's grid, where each eye's image is its visible image blended
+//    equally with its infrared camera registered onto it (the same blend in both eyes, so the
+//    eyes see one surface alike). Registration assumes a distance; with a registration at
 //    infinity the infrared content of a target at L would carry the infrared baseline's
 //    disparity and the infrared camera's parallax (60 mm at 10 m: 5 px on the visible grid), so
 //    the fused box is registered at the target's own distance, measured first on the visible
