@@ -15,7 +15,7 @@ namespace {
 // The fused frames as thermovis-view reads them: an observer's (the bridge is not in the chain
 // whose rate the services watch).
 transport::TopicQos fused_reader_qos() {
-  return transport::observer_qos(transport::frame_topic_qos(std::chrono::nanoseconds(0), 2, 2));
+  return transport::observer_qos(transport::frame_topic_qos());
 }
 
 bool subscribed(const transport::WriterBase& writer) { return writer.counters().matched > 0; }

@@ -27,7 +27,7 @@ constexpr std::size_t kKeptResults = 32;
 // Readers of the pipeline's frames: an observer's (the viewer is not in the chain whose rate the
 // services watch, and takes what it can).
 transport::TopicQos frame_reader_qos() {
-  return transport::observer_qos(transport::frame_topic_qos(std::chrono::nanoseconds(0), 2, 2));
+  return transport::observer_qos(transport::frame_topic_qos());
 }
 
 // The display topic is written at the composition rate, far below 50 Hz: no DEADLINE either.

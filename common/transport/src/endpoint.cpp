@@ -139,14 +139,11 @@ WriterBase::~WriterBase() { destroy(); }
 
 void WriterBase::recreate() {
   if (writer_ != nullptr) {
-    wait_for_frame_drain();
-    writer_->set_listener(nullptr);
-    if (participant_->publisher->delete_datawriter(writer_) != ReturnCode_t::RETCODE_OK) {
+    if (!delete_writer()) {
       writer_->set_listener(listener_.get());
       throw std::runtime_error("cannot recreate the writer of '" + topic_ +
                                "': this process still holds samples loaned from it");
     }
-    writer_ = nullptr;
     matched_->set(0, *counters_);
   }
   create();
@@ -171,13 +168,17 @@ void WriterBase::wait_for_frame_drain() const {
   }
 }
 
-void WriterBase::destroy() noexcept {
-  if (writer_ == nullptr) return;
+bool WriterBase::delete_writer() noexcept {
   wait_for_frame_drain();
-  // Stop callbacks before the listener goes, then delete the writer.
+  // Stop callbacks before the listener can go, then delete the writer.
   writer_->set_listener(nullptr);
-  participant_->publisher->delete_datawriter(writer_);
+  if (participant_->publisher->delete_datawriter(writer_) != ReturnCode_t::RETCODE_OK) return false;
   writer_ = nullptr;
+  return true;
+}
+
+void WriterBase::destroy() noexcept {
+  if (writer_ != nullptr) delete_writer();
 }
 
 bool WriterBase::wait_for_readers(std::uint32_t count, std::chrono::milliseconds timeout) {

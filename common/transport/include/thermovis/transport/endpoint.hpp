@@ -90,6 +90,9 @@ class WriterBase {
   void create();
   void destroy() noexcept;
   void wait_for_frame_drain() const;
+  // Deletes the DDS writer once its readers had kFrameDrain; false when Fast DDS refuses (loans
+  // outstanding): the writer stays, its listener detached.
+  bool delete_writer() noexcept;
 };
 
 class ReaderBase {
