@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <optional>
+#include <sstream>
 #include <stdexcept>
 
 #include "command.hpp"
@@ -188,7 +189,20 @@ int run_range(const Options& opt) {
         {"points_valid", r.points_valid},
         {"matches", r.points_total},
         {"keypoints", t.matching.keypoints_left}};
-    if (mode == rg::Mode::fused) out["registration_distance_m"] = t.registration_distance_m;
+    if (mode == rg::Mode::fused) {
+      // Each pair's own range, as combined into the target's.
+      auto band = [&](const rg::TargetRange& b, const cv::Rect& band_box) {
+        return nlohmann::json{
+            {"status", rg::status_name(b.status)},
+            {"message", b.message},
+            {"box", {band_box.x, band_box.y, band_box.br().x - 1, band_box.br().y - 1}},
+            {"distance_m", number(b.distance_m)},
+            {"sigma_m", number(b.sigma_m)},
+            {"points_used", b.points_used}};
+      };
+      out["bands"] = {{"visible", band(t.visible, box)},
+                      {"infrared", band(t.infrared, t.infrared_box)}};
+    }
     if (request.truth_distance_m) {
       out["truth_distance_m"] = *request.truth_distance_m;
       out["error_m"] = number(r.distance_m - *request.truth_distance_m);
@@ -201,6 +215,20 @@ int run_range(const Options& opt) {
       if (r.status == rg::RangeStatus::ok) {
         std::cout << std::fixed << std::setprecision(3) << r.distance_m << " m +- " << r.sigma_m
                   << " (" << r.points_used << "/" << r.points_valid << " points)";
+        if (mode == rg::Mode::fused) {
+          auto band = [](const char* name, const rg::TargetRange& b) {
+            std::ostringstream text;
+            text << std::fixed << std::setprecision(3) << name << " ";
+            if (b.status == rg::RangeStatus::ok) {
+              text << b.distance_m << " +- " << b.sigma_m;
+            } else {
+              text << rg::status_name(b.status);
+            }
+            return text.str();
+          };
+          std::cout << " [" << band("visible", t.visible) << ", " << band("infrared", t.infrared)
+                    << "]";
+        }
         if (request.truth_distance_m) std::cout << "  truth " << *request.truth_distance_m << " m";
       } else {
         std::cout << rg::status_name(r.status) << ": " << r.message;

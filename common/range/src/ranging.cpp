@@ -390,4 +390,51 @@ void move_to_centre(TargetRange& range, const RangingGeometry& geometry, double 
   range.distance_m += offset_m;
 }
 
+TargetRange combine_ranges(const TargetRange& a, const TargetRange& b,
+                           const RangingGeometry& report, double shared_sigma_m) {
+  const bool a_ok = a.status == RangeStatus::ok && std::isfinite(a.sigma_m) && a.sigma_m > 0;
+  const bool b_ok = b.status == RangeStatus::ok && std::isfinite(b.sigma_m) && b.sigma_m > 0;
+  if (!a_ok && !b_ok) {
+    TargetRange r = a;
+    if (a.status == RangeStatus::ok || b.status == RangeStatus::ok) {
+      r.status = RangeStatus::too_few_points;
+      r.message = "no range with a finite uncertainty to combine";
+    } else {
+      r.message = a.message + "; " + b.message;
+    }
+    r.used.clear();
+    return r;
+  }
+  TargetRange r = a_ok ? a : b;
+  if (a_ok && b_ok) {
+    // Inverse-variance weights on each measurement's own part; the shared part stays whole.
+    const double shared2 = shared_sigma_m * shared_sigma_m;
+    const double va = std::max(a.sigma_m * a.sigma_m - shared2, 1e-12);
+    const double vb = std::max(b.sigma_m * b.sigma_m - shared2, 1e-12);
+    const double wa = 1.0 / va, wb = 1.0 / vb;
+    r.position_m = (wa * a.position_m + wb * b.position_m) / (wa + wb);
+    r.sigma_m = std::sqrt(1.0 / (wa + wb) + shared2);
+    r.points_total = a.points_total + b.points_total;
+    r.points_valid = a.points_valid + b.points_valid;
+    r.points_used = a.points_used + b.points_used;
+    r.at_image_edge = a.at_image_edge && b.at_image_edge;
+  }
+  r.used.clear();
+  // Distance, depth and disparity as seen from the report geometry's left camera.
+  const Eigen::Vector3d local = report.T_ref_left_rect.inverse() * r.position_m;
+  r.distance_m = local.norm();
+  r.depth_m = local.z();
+  Eigen::Vector2d px;
+  double disparity = 0;
+  if (project_point(report.grid, report.baseline_m, local, px, disparity)) {
+    const PointTriangulation t = triangulate(report.grid, report.baseline_m, px, disparity);
+    r.disparity_px = disparity;
+    r.disparity_sigma_px =
+        t.valid && t.distance_per_px > 0 ? r.sigma_m / t.distance_per_px : TargetRange::nan;
+  } else {
+    r.disparity_px = r.disparity_sigma_px = TargetRange::nan;
+  }
+  return r;
+}
+
 }  // namespace thermovis::range

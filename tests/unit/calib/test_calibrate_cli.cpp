@@ -2,8 +2,6 @@
 // (non-zero exit, a message naming the cause, nothing written).
 #include <gtest/gtest.h>
 
-#include <array>
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -16,22 +14,8 @@ namespace fs = std::filesystem;
 
 namespace {
 
-struct Result {
-  int exit_code = 0;
-  std::string output;  // stdout and stderr
-};
-
-Result run(const std::string& args) {
-  const std::string cmd =
-      (thermovis::test::bin_dir() / "thermovis").string() + " " + args + " 2>&1";
-  Result r;
-  FILE* pipe = popen(cmd.c_str(), "r");
-  if (pipe == nullptr) return {-1, "popen failed"};
-  std::array<char, 4096> buf{};
-  while (fgets(buf.data(), buf.size(), pipe) != nullptr) r.output += buf.data();
-  const int status = pclose(pipe);
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
+thermovis::test::CommandResult run(const std::string& args) {
+  return thermovis::test::run_thermovis(args);
 }
 
 }  // namespace

@@ -209,3 +209,63 @@ TEST(RangeTarget, BadInputSaysWhy) {
   // Good input: the distance of disparity 10 px at that column.
   EXPECT_NEAR(r.distance_m, rg::triangulate(grid, kBaseline, {500, 500}, 10).distance_m, 1e-9);
 }
+
+// Two pairs' ranges of one target: inverse-variance weights on their own errors, the shared
+// (shape) error kept whole; one failed range gives the other; both failed say why.
+TEST(CombineRanges, WeighsEachPairByItsOwnUncertainty) {
+  const cam::RectifiedCamera grid = visible_grid();
+  const rg::RangingGeometry report{grid, kBaseline, Eigen::Isometry3d::Identity()};
+  rg::TargetRange a, b;
+  a.status = b.status = rg::RangeStatus::ok;
+  a.position_m = {0.0, 0.0, 20.0};
+  a.sigma_m = 0.1;
+  a.points_used = 7;
+  b.position_m = {0.0, 0.0, 21.0};
+  b.sigma_m = 0.2;
+  b.points_used = 5;
+  rg::TargetRange c = rg::combine_ranges(a, b, report, 0.0);
+  ASSERT_EQ(c.status, rg::RangeStatus::ok);
+  // Weights 100 : 25.
+  EXPECT_NEAR(c.distance_m, 20.2, 1e-9);
+  EXPECT_NEAR(c.depth_m, 20.2, 1e-9);
+  EXPECT_NEAR(c.sigma_m, std::sqrt(1.0 / 125.0), 1e-12);
+  EXPECT_EQ(c.points_used, 12);
+  EXPECT_TRUE(c.used.empty());
+  EXPECT_GT(c.disparity_px, 0.0);
+  EXPECT_GT(c.disparity_sigma_px, 0.0);
+
+  // A shared 0.08 m: own parts 0.06 and 0.183 m, weights 277.8 : 29.9; the shared part whole.
+  c = rg::combine_ranges(a, b, report, 0.08);
+  const double wa = 1 / (0.01 - 0.0064), wb = 1 / (0.04 - 0.0064);
+  EXPECT_NEAR(c.distance_m, (wa * 20 + wb * 21) / (wa + wb), 1e-9);
+  EXPECT_NEAR(c.sigma_m, std::sqrt(1 / (wa + wb) + 0.0064), 1e-12);
+  EXPECT_GT(c.sigma_m, 0.08);
+
+  // One failed: the other, from the report camera (here 1 m to the side of b's frame).
+  rg::TargetRange failed;
+  failed.status = rg::RangeStatus::too_few_points;
+  failed.message = "box (x 1, y 1, 8 x 20): 1 point(s) kept by Eq. 34, 3 needed";
+  const rg::RangingGeometry shifted{grid, kBaseline,
+                                    Eigen::Isometry3d(Eigen::Translation3d(1.0, 0.0, 0.0))};
+  c = rg::combine_ranges(failed, b, shifted, 0.0);
+  ASSERT_EQ(c.status, rg::RangeStatus::ok);
+  EXPECT_NEAR(c.distance_m, std::hypot(1.0, 21.0), 1e-9);
+  EXPECT_DOUBLE_EQ(c.sigma_m, 0.2);
+
+  // A range without a finite sigma is not combined.
+  rg::TargetRange nan_sigma = b;
+  nan_sigma.sigma_m = rg::TargetRange::nan;
+  c = rg::combine_ranges(a, nan_sigma, report, 0.0);
+  EXPECT_NEAR(c.distance_m, 20.0, 1e-9);
+  EXPECT_DOUBLE_EQ(c.sigma_m, 0.1);
+
+  // Both failed: no distance, and both reasons.
+  rg::TargetRange none;
+  none.status = rg::RangeStatus::no_matches;
+  none.message = "no correspondence in the box";
+  c = rg::combine_ranges(failed, none, report, 0.0);
+  EXPECT_EQ(c.status, rg::RangeStatus::too_few_points);
+  EXPECT_TRUE(std::isnan(c.distance_m));
+  EXPECT_NE(c.message.find("Eq. 34"), std::string::npos);
+  EXPECT_NE(c.message.find("no correspondence"), std::string::npos);
+}

@@ -1,5 +1,6 @@
 // The rig pipeline on a simulated frame (the paper's Table 6 scene: people at 5-60 m): visible
-// ranging of the truth boxes against the true distances, and bad frames.
+// ranging of the truth boxes against the true distances, fused ranging by day and at night, and
+// bad frames.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -71,9 +72,10 @@ TEST(StereoRanger, BadFramesAreClearErrors) {
   EXPECT_THROW(rg::parse_mode("thermal"), std::invalid_argument);
 }
 
-// Fused ranging at night: the visible pair gives no distance for most people, so the infrared is
-// registered at the distance the infrared pair measures; the fused pair then ranges them.
-TEST(StereoRanger, FusedRangingAtNightRegistersTheInfraredAtItsOwnDistance) {
+// Fused ranging at night: the visible pair gives no distance for most people; the infrared pair
+// ranges them on the visible box seen from the infrared camera at their distance, and the fused
+// range is the infrared pair's.
+TEST(StereoRanger, FusedRangingAtNightTakesTheInfraredPairsRange) {
   const auto rig = thermovis::runtime::load_rig(thermovis::runtime::default_rig_path());
   const auto scene =
       thermovis::runtime::load_scene(thermovis::runtime::shipped_scene_path("night"));
@@ -90,28 +92,85 @@ TEST(StereoRanger, FusedRangingAtNightRegistersTheInfraredAtItsOwnDistance) {
   for (const auto& t : simulated.truth(0)) {
     if (t.cls != sim::TargetClass::person || t.distance_m > 21) continue;
     const auto& b = t.boxes[static_cast<size_t>(sim::Slot::visible_left)];
-    if (!b.has_value()) continue;
+    const auto& ib = t.boxes[static_cast<size_t>(sim::Slot::infrared_left)];
+    if (!b.has_value() || !ib.has_value()) continue;
     ++people;
     const cv::Rect box =
         ranger.raw_box_to_rectified(rg::Mode::visible, b->x_min, b->y_min, b->x_max, b->y_max);
-    const rg::RangedTarget visible = ranger.range(rectified, rg::Mode::visible, box, options);
     const rg::RangedTarget fused = ranger.range(rectified, rg::Mode::fused, box, options);
-    std::cout << t.id << " at " << t.distance_m << " m: visible "
-              << (visible.range.status == rg::RangeStatus::ok
-                      ? std::to_string(visible.range.distance_m)
-                      : visible.range.message)
+    std::cout << t.id << " at " << t.distance_m << " m: visible pair "
+              << (fused.visible.status == rg::RangeStatus::ok
+                      ? std::to_string(fused.visible.distance_m)
+                      : fused.visible.message)
+              << ", infrared pair "
+              << (fused.infrared.status == rg::RangeStatus::ok
+                      ? std::to_string(fused.infrared.distance_m)
+                      : fused.infrared.message)
               << ", fused "
               << (fused.range.status == rg::RangeStatus::ok ? std::to_string(fused.range.distance_m)
                                                             : fused.range.message)
-              << " (registered at " << fused.registration_distance_m << " m)\n";
-    if (visible.range.status != rg::RangeStatus::ok) ++unranged_visible;
+              << "\n";
+    if (fused.visible.status != rg::RangeStatus::ok) ++unranged_visible;
     if (fused.range.status != rg::RangeStatus::ok) continue;
     ++fused_ranged;
-    // The infrared was registered at the target's own distance, not at infinity.
-    EXPECT_NEAR(fused.registration_distance_m, t.distance_m, 0.1 * t.distance_m) << t.id;
     EXPECT_LT(std::abs(fused.range.distance_m - t.distance_m), 0.05 * t.distance_m + 0.1) << t.id;
+    if (fused.visible.status == rg::RangeStatus::ok) continue;
+    // The infrared box is where the infrared camera sees the person (its truth box), not where
+    // a ray at infinity would put it.
+    const cv::Rect truth_ir =
+        ranger.raw_box_to_rectified(rg::Mode::infrared, ib->x_min, ib->y_min, ib->x_max, ib->y_max);
+    const double overlap = (fused.infrared_box & truth_ir).area();
+    EXPECT_GT(overlap / (fused.infrared_box | truth_ir).area(), 0.5) << t.id;
+    // The infrared pair's range alone, from the visible camera's centre: the cameras are
+    // centimetres apart, so the distances agree to a few centimetres.
+    EXPECT_NEAR(fused.range.distance_m, fused.infrared.distance_m, 0.1) << t.id;
+    EXPECT_DOUBLE_EQ(fused.range.sigma_m, fused.infrared.sigma_m) << t.id;
   }
   ASSERT_GT(people, 0);
   EXPECT_GT(unranged_visible, 0) << "the night scene is lit enough for visible ranging";
   EXPECT_GE(fused_ranged, people - 1);
+}
+
+// By day both pairs range the people; the fused range is their inverse-variance combination, so
+// it is more certain than either pair's and lies between them.
+TEST(StereoRanger, FusedRangingByDayCombinesBothPairs) {
+  const auto rig = thermovis::runtime::load_rig(thermovis::runtime::default_rig_path());
+  const auto scene =
+      thermovis::runtime::load_scene(thermovis::runtime::shipped_scene_path("paper"));
+  const sim::SimulatedRig simulated(rig, scene, 3);
+  sim::FrameSet frames = simulated.allocate();
+  simulated.render(0, frames);
+  const rg::StereoRanger ranger(rig);
+  const rg::RectifiedFrames rectified =
+      ranger.rectify({frames[sim::Slot::visible_left], frames[sim::Slot::visible_right],
+                      frames[sim::Slot::infrared_left], frames[sim::Slot::infrared_right]});
+  rg::RangerOptions options;
+  options.range.shape = rg::TargetShape::for_class("person");
+  int both = 0;
+  for (const auto& t : simulated.truth(0)) {
+    if (t.cls != sim::TargetClass::person || t.distance_m > 21) continue;
+    const auto& b = t.boxes[static_cast<size_t>(sim::Slot::visible_left)];
+    ASSERT_TRUE(b.has_value()) << t.id;
+    const cv::Rect box =
+        ranger.raw_box_to_rectified(rg::Mode::visible, b->x_min, b->y_min, b->x_max, b->y_max);
+    const rg::RangedTarget fused = ranger.range(rectified, rg::Mode::fused, box, options);
+    if (fused.visible.status != rg::RangeStatus::ok ||
+        fused.infrared.status != rg::RangeStatus::ok) {
+      continue;
+    }
+    ++both;
+    ASSERT_EQ(fused.range.status, rg::RangeStatus::ok) << t.id;
+    std::cout << t.id << ": visible pair " << fused.visible.distance_m << " +- "
+              << fused.visible.sigma_m << ", infrared pair " << fused.infrared.distance_m << " +- "
+              << fused.infrared.sigma_m << ", fused " << fused.range.distance_m << " +- "
+              << fused.range.sigma_m << " (truth " << t.distance_m << ")\n";
+    EXPECT_LT(fused.range.sigma_m, std::min(fused.visible.sigma_m, fused.infrared.sigma_m));
+    EXPECT_GT(fused.range.distance_m,
+              std::min(fused.visible.distance_m, fused.infrared.distance_m) - 0.05);
+    EXPECT_LT(fused.range.distance_m,
+              std::max(fused.visible.distance_m, fused.infrared.distance_m) + 0.05);
+    EXPECT_LT(std::abs(fused.range.distance_m - t.distance_m), 0.02 * t.distance_m + 0.1) << t.id;
+    EXPECT_EQ(fused.range.points_used, fused.visible.points_used + fused.infrared.points_used);
+  }
+  EXPECT_GE(both, 3);
 }

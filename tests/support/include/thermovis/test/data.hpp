@@ -18,6 +18,14 @@ std::filesystem::path source_root();
 // The folder holding the built executables (build/bin).
 std::filesystem::path bin_dir();
 
+// Runs the built `thermovis` executable with `args` (a shell command line's arguments) and
+// returns its exit code (-1 when it did not exit normally) and its stdout and stderr together.
+struct CommandResult {
+  int exit_code = 0;
+  std::string output;
+};
+CommandResult run_thermovis(const std::string& args);
+
 // A fresh, empty temporary folder for one test, removed when the test ends unless it failed (a
 // failed test's folders are kept, and named on stdout, for inspection).
 std::filesystem::path temp_dir(const std::string& name);
