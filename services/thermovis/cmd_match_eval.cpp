@@ -24,6 +24,7 @@ struct Options {
   std::string methods = "orb,akaze,sift,ncc,sgbm";
   int repeat = 1;
   bool no_subpixel = false;
+  int max_points = 0;
   bool json = false;
 };
 
@@ -57,6 +58,7 @@ int run_match_eval(const Options& opt) {
     mt::MatchOptions o;
     o.method = mt::parse_method(name);
     o.subpixel = !opt.no_subpixel;
+    o.max_points = opt.max_points;
     mt::MatchAccuracy total;
     double ms_total = 0, abs_sum = 0;
     nlohmann::json per_scene = nlohmann::json::array();
@@ -131,6 +133,10 @@ THERMOVIS_COMMAND(
       app.add_option("--methods", opt->methods, "comma-separated: orb,akaze,sift,ncc,sgbm");
       app.add_option("--repeat", opt->repeat, "runs per pair; the fastest is reported");
       app.add_flag("--no-subpixel", opt->no_subpixel, "skip the sub-pixel refinement");
+      app.add_option("--max-points", opt->max_points,
+                     "ncc: corners searched per pair (0 = all: the whole image is one box; "
+                     "ranging searches 200 per target box)")
+          ->capture_default_str();
       app.add_flag("--json", opt->json, "one JSON object per method");
       return [opt] { return run_match_eval(*opt); };
     });

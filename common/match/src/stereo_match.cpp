@@ -188,7 +188,8 @@ std::vector<Candidate> ncc_candidates(const cv::Mat& L, const cv::Mat& R, const 
   const cv::Rect roi = (box + cv::Size(6, 6) - cv::Point(3, 3)) & cv::Rect(0, 0, L.cols, L.rows);
   std::vector<cv::KeyPoint> kps;
   cv::FAST(L(roi), kps, o.fast_threshold, true);
-  cv::KeyPointsFilter::retainBest(kps, o.max_features);
+  cv::KeyPointsFilter::retainBest(
+      kps, o.max_points > 0 ? std::min(o.max_points, o.max_features) : o.max_features);
   keypoints = 0;
   const int d_lo = static_cast<int>(std::ceil(o.min_disparity_px));
   const int d_hi = static_cast<int>(std::floor(o.max_disparity_px));

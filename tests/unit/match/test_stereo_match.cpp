@@ -30,6 +30,7 @@ mt::MatchAccuracy run_all(const std::vector<mt::MiddleburyScene>& scenes, mt::Me
     mt::MatchOptions o;
     o.method = method;
     o.max_disparity_px = s.ndisp;
+    o.max_points = 0;  // the whole image is one box: every corner, as `thermovis match-eval`
     const auto r = mt::match_box(s.left, s.right, cv::Rect(0, 0, s.left.cols, s.left.rows), o);
     const auto a = mt::evaluate_matches(r.matches, s.ground_truth);
     total.matches += a.matches;
@@ -194,6 +195,7 @@ TEST(MatchMs2Thermal, RawCountsAfterAgcMatchOnConsistentRows) {
     mt::MatchOptions o;
     o.method = m;
     o.max_disparity_px = 64;  // Z = 387.8 px * 0.304 m / d: d = 64 px is 1.8 m
+    o.max_points = 0;         // the whole image is one box
     const auto r = mt::match_box(left, right, cv::Rect(0, 0, left.cols, left.rows), o);
     std::cout << mt::method_name(m) << ": " << r.keypoints_left << " keypoints, " << r.candidates
               << " candidates, " << r.ransac_inliers << " row-model inliers, " << r.matches.size()

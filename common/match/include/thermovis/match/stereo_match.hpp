@@ -36,12 +36,17 @@ std::vector<Method> all_methods();
 
 struct MatchOptions {
   Method method = Method::ncc;
-  double min_disparity_px = 0.0;     // search range of d = xL - xR, px
-  double max_disparity_px = 64.0;    //
-  double row_tolerance_px = 1.5;     // |yR - yL| allowed before RANSAC (descriptor methods)
-  int max_features = 2000;           // keypoints detected in the box (left image)
-  double ratio_test = 0.8;           // descriptor methods: best / second-best distance
-  int fast_threshold = 12;           // ncc: FAST intensity threshold, grey levels
+  double min_disparity_px = 0.0;   // search range of d = xL - xR, px
+  double max_disparity_px = 64.0;  //
+  double row_tolerance_px = 1.5;   // |yR - yL| allowed before RANSAC (descriptor methods)
+  int max_features = 2000;         // keypoints detected in the box (left image)
+  double ratio_test = 0.8;         // descriptor methods: best / second-best distance
+  int fast_threshold = 12;         // ncc: FAST intensity threshold, grey levels
+  // ncc: corners searched per box, the strongest (0 = up to max_features). A near person's box
+  // has hundreds; 200 keep matching + ranging of one box within 5 ms on one core, and their
+  // mean disparity is already far finer than its bias. (An even spread over the box instead
+  // of the strongest matched fewer within 1 px on Middlebury: 84.7 % against 87.5 %.)
+  int max_points = 200;
   int patch_radius = 4;              // correlation / refinement patch: (2r+1)^2 px
   double min_zncc = 0.85;            // a refined match below this correlation is dropped
   double uniqueness = 0.05;          // ncc: best ZNCC must exceed the runner-up (|dd| > 1) by this
