@@ -16,12 +16,13 @@ int main(int argc, char** argv) {
   double deadline_ms = 20.0;
   node::add_common_options(app, common);
   node::add_grid_options(app, config.grid);
-  std::string band = "auto";
+  std::string band = "both";
   app.add_option("--band", band,
-                 "frames to match: auto (visible, infrared where visible finds too few points) "
-                 "| visible | infrared | fused")
+                 "frames to match: both (each box on both pairs; the range stage combines "
+                 "them) | auto (visible, infrared where visible finds too few points) | visible "
+                 "| infrared | fused")
       ->capture_default_str()
-      ->check(CLI::IsMember({"auto", "visible", "infrared", "fused"}));
+      ->check(CLI::IsMember({"both", "auto", "visible", "infrared", "fused"}));
   app.add_option("--min-visible-points", config.min_visible_points,
                  "auto: fewer visible correspondences than this -> the infrared pair")
       ->capture_default_str();
@@ -52,6 +53,7 @@ int main(int argc, char** argv) {
     std::cerr << common.service << ": answered " << stats.processed << ", without frame "
               << stats.no_frame << ", bad " << stats.bad << ", overwritten while copied "
               << stats.overwritten << ", points " << stats.points << ", on infrared "
-              << stats.infrared_targets << "\n";
+              << stats.infrared_targets << " (left out for room " << stats.infrared_left_out
+              << ")\n";
   });
 }

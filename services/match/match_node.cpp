@@ -84,7 +84,8 @@ BandChoice parse_band(const std::string& name) {
   if (name == "infrared") return BandChoice::infrared;
   if (name == "fused") return BandChoice::fused;
   if (name == "auto") return BandChoice::automatic;
-  throw std::invalid_argument("unknown band '" + name + "' (visible, infrared, fused, auto)");
+  if (name == "both") return BandChoice::both;
+  throw std::invalid_argument("unknown band '" + name + "' (visible, infrared, fused, auto, both)");
 }
 
 struct MatchNode::BandInput {
@@ -102,7 +103,7 @@ MatchNode::MatchNode(transport::Participant& participant, const camera::Rig& rig
     : config_(config),
       primary_(std::make_unique<BandInput>(participant, topic_of(config.band), band_of(config.band),
                                            config.deadline)),
-      infrared_(config.band == BandChoice::automatic
+      infrared_(config.band == BandChoice::automatic || config.band == BandChoice::both
                     ? std::make_unique<BandInput>(participant,
                                                   transport::topics::kRectifiedInfrared,
                                                   BAND_INFRARED, config.deadline)
@@ -228,6 +229,32 @@ match::MatchResult MatchNode::match_on(Band band, const Pair& pair, const cv::Re
   return result;
 }
 
+TargetMatch MatchNode::target_match(const Detection& detection, Band band,
+                                    match::MatchResult result) {
+  if (result.matches.size() > MAX_POINT_MATCHES) {
+    // Keep the best-correlated points the message has room for.
+    std::partial_sort(result.matches.begin(), result.matches.begin() + MAX_POINT_MATCHES,
+                      result.matches.end(),
+                      [](const auto& a, const auto& b) { return a.score > b.score; });
+    result.matches.resize(MAX_POINT_MATCHES);
+  }
+  TargetMatch target;
+  target.target_id(detection.target_id());
+  target.label(detection.label());
+  target.box(detection.box());
+  target.band(band);
+  for (const match::Correspondence& c : result.matches) {
+    PointMatch point;
+    point.left_x(static_cast<float>(c.left.x()));
+    point.left_y(static_cast<float>(c.left.y()));
+    point.right_x(static_cast<float>(c.right.x()));
+    point.right_y(static_cast<float>(c.right.y()));
+    target.points().push_back(point);
+  }
+  stats_.points += target.points().size();
+  return target;
+}
+
 void MatchNode::answer(const DetectionArray& detections) {
   const std::int64_t start_ns = transport::now_ns();
   const std::uint64_t seq = detections.frame_seq();
@@ -241,6 +268,9 @@ void MatchNode::answer(const DetectionArray& detections) {
   out.frame_seq(seq);
   out.capture_time_ns(detections.capture_time_ns());
   try {
+    // Both bands: the infrared entries follow all visible ones, so a full array loses only
+    // infrared entries.
+    std::vector<std::pair<const Detection*, cv::Rect>> infrared_boxes;
     for (const Detection& detection : detections.detections()) {
       const cv::Rect box = node::to_rect(detection.box());
       if (box.empty()) {
@@ -251,8 +281,11 @@ void MatchNode::answer(const DetectionArray& detections) {
       Band band = primary_->band;
       match::MatchResult result;
       if (primary != nullptr) result = match_on(band, *primary, box);
-      if (infrared != nullptr &&
-          static_cast<int>(result.matches.size()) < config_.min_visible_points) {
+      if (config_.band == BandChoice::both) {
+        if (infrared != nullptr) infrared_boxes.emplace_back(&detection, box);
+        if (primary == nullptr) continue;
+      } else if (infrared != nullptr &&
+                 static_cast<int>(result.matches.size()) < config_.min_visible_points) {
         match::MatchResult ir = match_on(BAND_INFRARED, *infrared, box);
         if (ir.matches.size() > result.matches.size()) {
           result = std::move(ir);
@@ -260,28 +293,16 @@ void MatchNode::answer(const DetectionArray& detections) {
           ++stats_.infrared_targets;
         }
       }
-      if (result.matches.size() > MAX_POINT_MATCHES) {
-        // Keep the best-correlated points the message has room for.
-        std::partial_sort(result.matches.begin(), result.matches.begin() + MAX_POINT_MATCHES,
-                          result.matches.end(),
-                          [](const auto& a, const auto& b) { return a.score > b.score; });
-        result.matches.resize(MAX_POINT_MATCHES);
+      out.targets().push_back(target_match(detection, band, std::move(result)));
+    }
+    for (const auto& [detection, box] : infrared_boxes) {
+      if (out.targets().size() >= MAX_TARGETS) {
+        ++stats_.infrared_left_out;
+        continue;
       }
-      TargetMatch target;
-      target.target_id(detection.target_id());
-      target.label(detection.label());
-      target.box(detection.box());
-      target.band(band);
-      for (const match::Correspondence& c : result.matches) {
-        PointMatch point;
-        point.left_x(static_cast<float>(c.left.x()));
-        point.left_y(static_cast<float>(c.left.y()));
-        point.right_x(static_cast<float>(c.right.x()));
-        point.right_y(static_cast<float>(c.right.y()));
-        target.points().push_back(point);
-      }
-      stats_.points += target.points().size();
-      out.targets().push_back(std::move(target));
+      out.targets().push_back(
+          target_match(*detection, BAND_INFRARED, match_on(BAND_INFRARED, *infrared, box)));
+      ++stats_.infrared_targets;
     }
   } catch (const std::exception& e) {
     ++stats_.bad;

@@ -9,8 +9,12 @@
 //  - visible: the rectified visible pair;
 //  - infrared: the rectified infrared pair (raw counts, each box's surroundings stretched to
 //    8 bits); its disparities follow the infrared baseline (the range stage knows);
-//  - auto (the default): visible first, and the infrared pair for a box where the visible one
-//    gives fewer than `min_visible_points` correspondences (night, glare, a featureless box);
+//  - both (the default): every box on both pairs, published as two TargetMatch entries with the
+//    detection's target id (band visible and band infrared); the range stage combines the two
+//    pairs' ranges by their uncertainties (range::combine_ranges). When the array would exceed
+//    its 64 targets, the infrared entries of the last boxes are left out;
+//  - auto: visible first, and the infrared pair for a box where the visible one gives fewer
+//    than `min_visible_points` correspondences (night, glare, a featureless box);
 //  - fused: the fused pair. The infrared content of a fused image is registered at one distance,
 //    so its disparities mix the two baselines (0.336 and 0.358 m for the paper rig): ranges are
 //    biased by up to their difference (6 %); kept for comparison.
@@ -34,13 +38,13 @@
 
 namespace thermovis::match_service {
 
-enum class BandChoice { visible, infrared, fused, automatic };
-// "visible" | "infrared" | "fused" | "auto"; std::invalid_argument otherwise.
+enum class BandChoice { visible, infrared, fused, automatic, both };
+// "visible" | "infrared" | "fused" | "auto" | "both"; std::invalid_argument otherwise.
 BandChoice parse_band(const std::string& name);
 
 struct MatchConfig {
   node::GridOptions grid;
-  BandChoice band = BandChoice::automatic;
+  BandChoice band = BandChoice::both;
   int min_visible_points = 8;  // auto: fewer visible correspondences -> try the infrared pair
   match::MatchOptions match;
   double min_distance_m = 2.5;  // nearest target searched (sets the largest disparity)
@@ -55,6 +59,7 @@ struct MatchStats {
   std::uint64_t overwritten = 0;       // frames reused by their writer while copied (dropped)
   std::uint64_t points = 0;            // correspondences published
   std::uint64_t infrared_targets = 0;  // targets matched on the infrared pair
+  std::uint64_t infrared_left_out = 0;  // both: infrared entries with no room in the array
 };
 
 class MatchNode {
@@ -75,11 +80,13 @@ class MatchNode {
   const Pair* find(BandInput& input, std::uint64_t seq);
   void answer(const DetectionArray& detections);
   match::MatchResult match_on(Band band, const Pair& pair, const cv::Rect& box) const;
+  // The message entry of one detection's matches (the best-correlated points it has room for).
+  TargetMatch target_match(const Detection& detection, Band band, match::MatchResult result);
 
   MatchConfig config_;
   cv::Size grid_size_;
   std::unique_ptr<BandInput> primary_;   // visible or fused (or infrared alone)
-  std::unique_ptr<BandInput> infrared_;  // auto: the infrared pair
+  std::unique_ptr<BandInput> infrared_;  // auto, both: the infrared pair
   transport::Reader<DetectionArray> detections_in_;
   transport::Writer<MatchArray> out_;
   node::HealthReporter health_;

@@ -1,8 +1,10 @@
 #include "range_node.hpp"
 
 #include <cmath>
+#include <map>
 #include <set>
 #include <stdexcept>
+#include <vector>
 
 #include "thermovis/node/frame_codec.hpp"
 #include "thermovis/node/service.hpp"
@@ -33,13 +35,21 @@ range::RangingGeometry ranging_geometry(const rectify::StereoGeometry& stereo) {
   return range::RangingGeometry{stereo.grid, stereo.baseline_m, stereo.T_ref_left_rect};
 }
 
+// The infrared pair shown on the visible grid: its right eye is off the grid's x axis (the two
+// baselines differ in direction), so points are triangulated from the true right centre.
+range::RangingGeometry registered_ranging_geometry(const rectify::StereoGeometry& stereo) {
+  range::RangingGeometry g = ranging_geometry(stereo);
+  g.right_centre_m = stereo.T_ref_left_rect.inverse() * stereo.T_ref_right_rect.translation();
+  return g;
+}
+
 }  // namespace
 
 RangeNode::Geometries RangeNode::geometries_of(const camera::Rig& rig,
                                                const node::GridOptions& grid) {
   const auto visible = node::pipeline_geometry(rig, grid);
   return {ranging_geometry(visible),
-          ranging_geometry(node::registered_infrared_geometry(rig, visible))};
+          registered_ranging_geometry(node::registered_infrared_geometry(rig, visible))};
 }
 
 RangeNode::RangeNode(transport::Participant& participant, const camera::Rig& rig,
@@ -84,15 +94,24 @@ void RangeNode::answer(const MatchArray& matches) {
   const std::string frame = "frame " + std::to_string(matches.frame_seq());
   node::check_stamps(matches.stamps(), matches.capture_time_ns(), frame);
   // The whole array is checked before any target is ranged: a bad array is rejected as a whole.
-  std::set<std::uint32_t> ids;
+  // A target id comes once, or twice with one entry on the infrared pair and one on the other
+  // (the match service's --band both): their ranges are combined.
+  std::map<std::uint32_t, std::vector<const TargetMatch*>> by_id;
+  std::vector<std::uint32_t> order;
   for (const TargetMatch& target : matches.targets()) {
     const std::string name = "target " + std::to_string(target.target_id()) + " of " + frame;
-    if (!ids.insert(target.target_id()).second)
-      throw std::invalid_argument(name + ": target id given twice");
     // BAND_UNKNOWN (a writer that does not say) is ranged as visible, like BAND_FUSED.
     if (target.band() > BAND_FUSED) {
       throw std::invalid_argument(name + ": unknown band " + std::to_string(target.band()));
     }
+    auto& entries = by_id[target.target_id()];
+    if (entries.empty()) order.push_back(target.target_id());
+    for (const TargetMatch* other : entries) {
+      if ((other->band() == BAND_INFRARED) == (target.band() == BAND_INFRARED)) {
+        throw std::invalid_argument(name + ": target id given twice for one pair");
+      }
+    }
+    entries.push_back(&target);
     for (std::size_t i = 0; i < target.points().size(); ++i) {
       const PointMatch& p = target.points()[i];
       if (!std::isfinite(p.left_x()) || !std::isfinite(p.left_y()) || !std::isfinite(p.right_x()) ||
@@ -101,39 +120,62 @@ void RangeNode::answer(const MatchArray& matches) {
                                     " has a non-finite coordinate");
       }
     }
-  }
-  for (const TargetMatch& target : matches.targets()) {
-    const cv::Rect box = node::to_rect(target.box());
-    if (box.empty()) {
-      throw std::invalid_argument("target " + std::to_string(target.target_id()) + " of " + frame +
-                                  ": box with no area or a non-finite field");
+    if (node::to_rect(target.box()).empty()) {
+      throw std::invalid_argument(name + ": box with no area or a non-finite field");
     }
-    // range_target skips points outside the box.
+  }
+  // One entry's range: its pair's geometry, the class's shape (or the surface with --surface).
+  auto range_one = [&](const TargetMatch& target, double& shared_sigma) {
     const range::RangingGeometry& geometry =
         target.band() == BAND_INFRARED ? geometry_.infrared : geometry_.visible;
+    const std::string label = target.label().to_string();
     range::RangeOptions options = config_.range;
-    if (!config_.surface) options.shape = range::TargetShape::for_class(target.label().to_string());
-    range::TargetRange r = range::range_target(geometry, box, correspondences_of(target), options);
+    if (!config_.surface) options.shape = range::TargetShape::for_class(label);
+    shared_sigma = options.shape.empty() ? 0.0 : options.shape_sigma_m;
+    // range_target skips points outside the box.
+    range::TargetRange r = range::range_target(geometry, node::to_rect(target.box()),
+                                               correspondences_of(target), options);
     if (!config_.surface && options.shape.empty())
-      range::move_to_centre(r, geometry, range::surface_to_centre_m(target.label().to_string()));
+      range::move_to_centre(r, geometry, range::surface_to_centre_m(label));
+    return r;
+  };
+  for (std::uint32_t id : order) {
+    const std::vector<const TargetMatch*>& entries = by_id[id];
+    const TargetMatch* shown = entries.front();  // label and box: the non-infrared entry's
+    for (const TargetMatch* e : entries)
+      if (e->band() != BAND_INFRARED) shown = e;
+    double shared_sigma = 0.0;
+    range::TargetRange r = range_one(*entries.front(), shared_sigma);
+    Band band = entries.front()->band();
+    if (entries.size() == 2) {
+      const range::TargetRange second = range_one(*entries[1], shared_sigma);
+      if (r.status == range::RangeStatus::ok && second.status == range::RangeStatus::ok) {
+        // Two pairs' independent measurements; the shape's error is one error in both.
+        r = range::combine_ranges(r, second, geometry_.visible, shared_sigma);
+        band = BAND_FUSED;
+      } else if (second.status == range::RangeStatus::ok) {
+        r = second;
+        band = entries[1]->band();
+      }
+    }
     if (r.status != range::RangeStatus::ok || !std::isfinite(r.distance_m)) {
       ++stats_.unranged;
       continue;
     }
     const Eigen::Vector3d p = T_camera_ref_ * r.position_m;
     TargetRange t;
-    t.target_id(target.target_id());
-    t.label(target.label());
+    t.target_id(id);
+    t.label(shown->label());
     // Distances of the contract are from the left visible camera's centre (infrared points
     // were triangulated from the left infrared camera's).
-    t.distance_m(static_cast<float>(target.band() == BAND_INFRARED ? p.norm() : r.distance_m));
+    t.distance_m(static_cast<float>(p.norm()));
     t.sigma_m(static_cast<float>(r.sigma_m));
     t.x_m(static_cast<float>(p.x()));
     t.y_m(static_cast<float>(p.y()));
     t.z_m(static_cast<float>(p.z()));
-    t.box(target.box());
+    t.box(shown->box());
     t.point_count(static_cast<std::uint32_t>(r.points_used));
-    t.band(target.band());
+    t.band(band);
     out.targets().push_back(t);
     ++stats_.ranged;
   }

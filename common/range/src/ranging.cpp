@@ -44,6 +44,74 @@ PointTriangulation triangulate(const camera::RectifiedCamera& grid, double basel
   return t;
 }
 
+PointTriangulation triangulate(const camera::RectifiedCamera& grid,
+                               const Eigen::Vector3d& right_centre, const Eigen::Vector2d& left_px,
+                               double disparity_px) {
+  PointTriangulation t;
+  if (!left_px.allFinite() || !std::isfinite(disparity_px) || !(disparity_px > 0.0) ||
+      !right_centre.allFinite() || !(right_centre.norm() > 0.0)) {
+    return t;
+  }
+  const double right_column = left_px.x() - disparity_px;
+  t.alpha_left = grid.alpha_of_column(left_px.x());
+  t.alpha_right = grid.alpha_of_column(right_column);
+  const auto& g = grid.intrinsics();
+  t.beta = (left_px.y() - g.cy) / g.f;
+  const double half_pi = M_PI / 2;
+  if (std::abs(t.alpha_left) >= half_pi || std::abs(t.alpha_right) >= half_pi ||
+      std::abs(t.beta) >= M_PI) {
+    return t;
+  }
+  const Eigen::Vector3d u(std::sin(t.alpha_left), std::cos(t.alpha_left) * std::sin(t.beta),
+                          std::cos(t.alpha_left) * std::cos(t.beta));
+  const Eigen::Vector3d& c = right_centre;
+  // P = B u with (P - c).x = sin(alpha_R) |P - c|; squared, a quadratic in B. Of its roots the
+  // one in front (B > 0) on the right side of the right eye (the sign of sin(alpha_R)).
+  auto distance_for = [&](double alpha_right) {
+    const double s = std::sin(alpha_right), s2 = s * s;
+    const double a = u.x() * u.x() - s2;
+    const double b = -2.0 * (u.x() * c.x() - s2 * u.dot(c));
+    const double q = c.x() * c.x() - s2 * c.squaredNorm();
+    double roots[2];
+    int n = 0;
+    if (std::abs(a) < 1e-15) {
+      if (std::abs(b) > 0) roots[n++] = -q / b;
+    } else {
+      const double disc = b * b - 4 * a * q;
+      if (disc >= 0) {
+        roots[n++] = (-b + std::sqrt(disc)) / (2 * a);
+        roots[n++] = (-b - std::sqrt(disc)) / (2 * a);
+      }
+    }
+    double best = std::numeric_limits<double>::quiet_NaN();
+    for (int i = 0; i < n; ++i) {
+      const double B = roots[i];
+      if (!(B > 0) || !std::isfinite(B)) continue;
+      const Eigen::Vector3d r = B * u - c;
+      if (std::abs(r.x() / r.norm() - s) > 1e-9 + 1e-6 * std::abs(s)) continue;  // squaring's root
+      if (std::isnan(best) || B < best) best = B;
+    }
+    return best;
+  };
+  t.distance_m = distance_for(t.alpha_right);
+  if (!std::isfinite(t.distance_m) || !(t.distance_m > 0)) return t;
+  t.position_left_rect = t.distance_m * u;
+  t.depth_m = t.position_left_rect.z();
+  const double lo = distance_for(grid.alpha_of_column(right_column - 0.5));
+  const double hi = distance_for(grid.alpha_of_column(right_column + 0.5));
+  t.distance_per_px = std::isfinite(lo) && std::isfinite(hi) ? std::abs(hi - lo) : 0.0;
+  t.valid = true;
+  return t;
+}
+
+PointTriangulation triangulate(const RangingGeometry& geometry, const Eigen::Vector2d& left_px,
+                               double disparity_px) {
+  if (geometry.right_centre_m.isZero()) {
+    return triangulate(geometry.grid, geometry.baseline_m, left_px, disparity_px);
+  }
+  return triangulate(geometry.grid, geometry.right_centre_m, left_px, disparity_px);
+}
+
 bool project_point(const camera::RectifiedCamera& grid, double baseline_m, const Eigen::Vector3d& p,
                    Eigen::Vector2d& left_px, double& disparity_px) {
   Eigen::Vector2d right_px;
@@ -286,8 +354,7 @@ TargetRange range_target(const RangingGeometry& geometry, const cv::Rect& box,
       continue;
     }
     ++in_box;
-    const PointTriangulation t =
-        triangulate(geometry.grid, geometry.baseline_m, c.left, c.disparity_px);
+    const PointTriangulation t = triangulate(geometry, c.left, c.disparity_px);
     if (!t.valid) continue;
     points.push_back(t);
     source.push_back(static_cast<int>(k));

@@ -43,6 +43,12 @@ struct RangingGeometry {
   // Left rectified frame in the rig frame (the reference camera's frame, metres), used to report
   // positions; identity reports them in the left rectified frame.
   Eigen::Isometry3d T_ref_left_rect = Eigen::Isometry3d::Identity();
+  // The right camera's centre in the left rectified frame when it is off that frame's x axis: a
+  // pair shown on another pair's grid (the pipeline's infrared pair on the visible grid: the
+  // paper rig's two baselines differ in direction by 11 deg, which puts the right infrared eye
+  // 68 mm off the visible grid's axis). Zero: at (baseline_m, 0, 0), the rectified case of
+  // Eq. 31-33.
+  Eigen::Vector3d right_centre_m = Eigen::Vector3d::Zero();
 };
 
 struct PointTriangulation {
@@ -59,6 +65,18 @@ struct PointTriangulation {
 // grid's domain, or the input is not finite.
 PointTriangulation triangulate(const camera::RectifiedCamera& grid, double baseline_m,
                                const Eigen::Vector2d& left_px, double disparity_px);
+
+// The same for a right camera centred at `right_centre` (left rectified frame, any direction):
+// the point on the left pixel's ray that the right eye sees at the column of left x - disparity
+// (its angle out of the y-z plane, alpha = asin(x / |r|), measured from the right centre).
+// With right_centre = (A, 0, 0) it is the rectified case above.
+PointTriangulation triangulate(const camera::RectifiedCamera& grid,
+                               const Eigen::Vector3d& right_centre, const Eigen::Vector2d& left_px,
+                               double disparity_px);
+
+// The triangulation the geometry calls for (right_centre_m zero: the rectified one).
+PointTriangulation triangulate(const RangingGeometry& geometry, const Eigen::Vector2d& left_px,
+                               double disparity_px);
 
 // The inverse: where a point of the left rectified frame appears (left pixel and disparity).
 // False when it is not in front of both eyes' grids.
