@@ -1,13 +1,13 @@
 #pragma once
 // thermovis-range: the last stage. Each target's correspondences (thermovis/matches) are
-// triangulated on the pipeline grid (Eq. 31-33; with the infrared baseline for points of the
-// infrared pair, node::registered_infrared_geometry) and reduced to one distance with Eq. 34 and an
-// uncertainty (range::range_target); the distance is moved from the target's visible surface to
-// its centre for known classes. A target matched on both pairs (thermovis-match --band both)
+// triangulated on the pipeline grid (Eq. 31-33; points of the infrared pair from the infrared
+// cameras' own centres, node::registered_infrared_geometry) and reduced to one distance with Eq. 34
+// and an uncertainty (range::range_target); the distance is moved from the target's visible surface
+// to its centre for known classes. A target matched on both pairs (thermovis-match --band both)
 // comes as two entries with one target id: their ranges are combined by their uncertainties
-// (range::combine_ranges) and published with BAND_FUSED. Publishes the public contract thermovis/ranges (RangeArray,
-// positions in the left visible camera's frame) and the frame's end-to-end stamps on
-// thermovis/timing for the supervisor.
+// (range::combine_ranges) and published with BAND_FUSED. Publishes the public contract
+// thermovis/ranges (RangeArray, positions in the left visible camera's frame) and the frame's
+// end-to-end stamps on thermovis/timing for the supervisor.
 #include <chrono>
 #include <cstdint>
 #include <string>
