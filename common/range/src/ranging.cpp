@@ -8,6 +8,23 @@
 
 namespace thermovis::range {
 
+namespace {
+
+// A correspondence's angles: alpha of each eye's column, beta of the row; false when one is
+// outside the grid's domain.
+bool correspondence_angles(const camera::RectifiedCamera& grid, const Eigen::Vector2d& left_px,
+                           double right_column, PointTriangulation& t) {
+  t.alpha_left = grid.alpha_of_column(left_px.x());
+  t.alpha_right = grid.alpha_of_column(right_column);
+  const auto& g = grid.intrinsics();
+  t.beta = (left_px.y() - g.cy) / g.f;
+  const double half_pi = M_PI / 2;
+  return std::abs(t.alpha_left) < half_pi && std::abs(t.alpha_right) < half_pi &&
+         std::abs(t.beta) < M_PI;
+}
+
+}  // namespace
+
 PointTriangulation triangulate(const camera::RectifiedCamera& grid, double baseline_m,
                                const Eigen::Vector2d& left_px, double disparity_px) {
   PointTriangulation t;
@@ -16,15 +33,7 @@ PointTriangulation triangulate(const camera::RectifiedCamera& grid, double basel
     return t;
   }
   const double right_column = left_px.x() - disparity_px;
-  t.alpha_left = grid.alpha_of_column(left_px.x());
-  t.alpha_right = grid.alpha_of_column(right_column);
-  const auto& g = grid.intrinsics();
-  t.beta = (left_px.y() - g.cy) / g.f;
-  const double half_pi = M_PI / 2;
-  if (std::abs(t.alpha_left) >= half_pi || std::abs(t.alpha_right) >= half_pi ||
-      std::abs(t.beta) >= M_PI) {
-    return t;
-  }
+  if (!correspondence_angles(grid, left_px, right_column, t)) return t;
   // Eq. 31-32: theta = pi/2 - alpha; B = A sin(theta_R) / sin(theta_R - theta_L).
   const double angle_at_target = t.alpha_left - t.alpha_right;  // theta_R - theta_L
   const double s = std::sin(angle_at_target);
@@ -53,15 +62,7 @@ PointTriangulation triangulate(const camera::RectifiedCamera& grid,
     return t;
   }
   const double right_column = left_px.x() - disparity_px;
-  t.alpha_left = grid.alpha_of_column(left_px.x());
-  t.alpha_right = grid.alpha_of_column(right_column);
-  const auto& g = grid.intrinsics();
-  t.beta = (left_px.y() - g.cy) / g.f;
-  const double half_pi = M_PI / 2;
-  if (std::abs(t.alpha_left) >= half_pi || std::abs(t.alpha_right) >= half_pi ||
-      std::abs(t.beta) >= M_PI) {
-    return t;
-  }
+  if (!correspondence_angles(grid, left_px, right_column, t)) return t;
   const Eigen::Vector3d u(std::sin(t.alpha_left), std::cos(t.alpha_left) * std::sin(t.beta),
                           std::cos(t.alpha_left) * std::cos(t.beta));
   const Eigen::Vector3d& c = right_centre;

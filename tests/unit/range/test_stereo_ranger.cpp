@@ -15,6 +15,28 @@
 namespace rg = thermovis::range;
 namespace sim = thermovis::sim;
 
+namespace {
+
+// Frame 0 of a shipped scene on the default rig, rectified for ranging.
+struct RenderedFrame {
+  RenderedFrame(const std::string& scene, std::uint64_t seed)
+      : simulated(thermovis::runtime::load_rig(thermovis::runtime::default_rig_path()),
+                  thermovis::runtime::load_scene(thermovis::runtime::shipped_scene_path(scene)),
+                  seed),
+        ranger(simulated.rig()) {
+    sim::FrameSet frames = simulated.allocate();
+    simulated.render(0, frames);
+    rectified =
+        ranger.rectify({frames[sim::Slot::visible_left], frames[sim::Slot::visible_right],
+                        frames[sim::Slot::infrared_left], frames[sim::Slot::infrared_right]});
+  }
+  sim::SimulatedRig simulated;
+  rg::StereoRanger ranger;
+  rg::RectifiedFrames rectified;
+};
+
+}  // namespace
+
 TEST(StereoRanger, SimulatedPeopleWithinTwoPercentTo30m) {
   const auto rig = thermovis::runtime::load_rig(thermovis::runtime::default_rig_path());
   const auto scene =
@@ -76,28 +98,20 @@ TEST(StereoRanger, BadFramesAreClearErrors) {
 // ranges them on the visible box seen from the infrared camera at their distance, and the fused
 // range is the infrared pair's.
 TEST(StereoRanger, FusedRangingAtNightTakesTheInfraredPairsRange) {
-  const auto rig = thermovis::runtime::load_rig(thermovis::runtime::default_rig_path());
-  const auto scene =
-      thermovis::runtime::load_scene(thermovis::runtime::shipped_scene_path("night"));
-  const sim::SimulatedRig simulated(rig, scene, 5);
-  sim::FrameSet frames = simulated.allocate();
-  simulated.render(0, frames);
-  const rg::StereoRanger ranger(rig);
-  const rg::RectifiedFrames rectified =
-      ranger.rectify({frames[sim::Slot::visible_left], frames[sim::Slot::visible_right],
-                      frames[sim::Slot::infrared_left], frames[sim::Slot::infrared_right]});
+  const RenderedFrame night("night", 5);
   rg::RangerOptions options;
   options.centre_offset_m = rg::surface_to_centre_m("person");
   int people = 0, unranged_visible = 0, fused_ranged = 0;
-  for (const auto& t : simulated.truth(0)) {
+  for (const auto& t : night.simulated.truth(0)) {
     if (t.cls != sim::TargetClass::person || t.distance_m > 21) continue;
     const auto& b = t.boxes[static_cast<size_t>(sim::Slot::visible_left)];
     const auto& ib = t.boxes[static_cast<size_t>(sim::Slot::infrared_left)];
     if (!b.has_value() || !ib.has_value()) continue;
     ++people;
-    const cv::Rect box =
-        ranger.raw_box_to_rectified(rg::Mode::visible, b->x_min, b->y_min, b->x_max, b->y_max);
-    const rg::RangedTarget fused = ranger.range(rectified, rg::Mode::fused, box, options);
+    const cv::Rect box = night.ranger.raw_box_to_rectified(rg::Mode::visible, b->x_min, b->y_min,
+                                                           b->x_max, b->y_max);
+    const rg::RangedTarget fused =
+        night.ranger.range(night.rectified, rg::Mode::fused, box, options);
     std::cout << t.id << " at " << t.distance_m << " m: visible pair "
               << (fused.visible.status == rg::RangeStatus::ok
                       ? std::to_string(fused.visible.distance_m)
@@ -117,8 +131,8 @@ TEST(StereoRanger, FusedRangingAtNightTakesTheInfraredPairsRange) {
     if (fused.visible.status == rg::RangeStatus::ok) continue;
     // The infrared box is where the infrared camera sees the person (its truth box), not where
     // a ray at infinity would put it.
-    const cv::Rect truth_ir =
-        ranger.raw_box_to_rectified(rg::Mode::infrared, ib->x_min, ib->y_min, ib->x_max, ib->y_max);
+    const cv::Rect truth_ir = night.ranger.raw_box_to_rectified(rg::Mode::infrared, ib->x_min,
+                                                                ib->y_min, ib->x_max, ib->y_max);
     const double overlap = (fused.infrared_box & truth_ir).area();
     EXPECT_GT(overlap / (fused.infrared_box | truth_ir).area(), 0.5) << t.id;
     // The infrared pair's range alone, from the visible camera's centre: the cameras are
@@ -134,26 +148,17 @@ TEST(StereoRanger, FusedRangingAtNightTakesTheInfraredPairsRange) {
 // By day both pairs range the people; the fused range is their inverse-variance combination, so
 // it is more certain than either pair's and lies between them.
 TEST(StereoRanger, FusedRangingByDayCombinesBothPairs) {
-  const auto rig = thermovis::runtime::load_rig(thermovis::runtime::default_rig_path());
-  const auto scene =
-      thermovis::runtime::load_scene(thermovis::runtime::shipped_scene_path("paper"));
-  const sim::SimulatedRig simulated(rig, scene, 3);
-  sim::FrameSet frames = simulated.allocate();
-  simulated.render(0, frames);
-  const rg::StereoRanger ranger(rig);
-  const rg::RectifiedFrames rectified =
-      ranger.rectify({frames[sim::Slot::visible_left], frames[sim::Slot::visible_right],
-                      frames[sim::Slot::infrared_left], frames[sim::Slot::infrared_right]});
+  const RenderedFrame day("paper", 3);
   rg::RangerOptions options;
   options.range.shape = rg::TargetShape::for_class("person");
   int both = 0;
-  for (const auto& t : simulated.truth(0)) {
+  for (const auto& t : day.simulated.truth(0)) {
     if (t.cls != sim::TargetClass::person || t.distance_m > 21) continue;
     const auto& b = t.boxes[static_cast<size_t>(sim::Slot::visible_left)];
     ASSERT_TRUE(b.has_value()) << t.id;
     const cv::Rect box =
-        ranger.raw_box_to_rectified(rg::Mode::visible, b->x_min, b->y_min, b->x_max, b->y_max);
-    const rg::RangedTarget fused = ranger.range(rectified, rg::Mode::fused, box, options);
+        day.ranger.raw_box_to_rectified(rg::Mode::visible, b->x_min, b->y_min, b->x_max, b->y_max);
+    const rg::RangedTarget fused = day.ranger.range(day.rectified, rg::Mode::fused, box, options);
     if (fused.visible.status != rg::RangeStatus::ok ||
         fused.infrared.status != rg::RangeStatus::ok) {
       continue;
