@@ -1,7 +1,7 @@
 #pragma once
 // Ranging of targets in the raw frames of the dual-band rig: rectification of both pairs (once
-// computed composed maps), infrared AGC, optional fusion, matching inside each target's box and
-// ranging (ranging.hpp).
+// computed composed maps), infrared AGC, matching inside each target's box on one pair or both,
+// and ranging (ranging.hpp).
 //
 // Modes:
 //  - visible: the visible pair on its rectified grid, matched on the grey image;
