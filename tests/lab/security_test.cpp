@@ -91,7 +91,9 @@ class LabPipeline {
       if (name == service) return p->pid();
     return -1;
   }
+  // The services' logs (after stop(): as they were when the services had exited).
   std::string logs() const {
+    if (services_.empty()) return stopped_logs_;
     std::string all;
     for (const auto& [name, p] : services_) all += "---- " + name + "\n" + p->log();
     return all;
@@ -102,11 +104,13 @@ class LabPipeline {
       it->second->signal(SIGTERM);
       EXPECT_EQ(it->second->wait(30s), 0) << it->first << "\n" << it->second->log();
     }
+    stopped_logs_ = logs();
     services_.clear();
   }
 
  private:
   std::vector<std::pair<std::string, std::unique_ptr<ChildProcess>>> services_;
+  std::string stopped_logs_;
 };
 
 // Waits for `wanted` range arrays with targets; the range -> consumer hop of each, ms (from the
@@ -147,6 +151,10 @@ TEST(Security, PipelineRunsAuthenticatedAndStrangersNeitherReadNorInject) {
       dir / "make-security.log");
   ASSERT_EQ(make.wait(120s), 0) << make.log();
   ::setenv("THERMOVIS_SECURITY_DIR", (dir / "security").c_str(), 1);
+  // The unsecured stage on a domain of its own: its departing participants are still announced
+  // for a while, and secured participants that start authenticating one of them as it leaves
+  // could stall (the secured stage's frames then never reached rectify-fuse in 2 of 5 runs).
+  const int plain_domain = thermovis::test::second_private_domain();
   const int domain = thermovis::test::private_domain();
   const thermovis::test::NetnsScope on_a(lab->ns("a"));
 
@@ -155,8 +163,8 @@ TEST(Security, PipelineRunsAuthenticatedAndStrangersNeitherReadNorInject) {
   std::vector<double> plain_hops;
   int plain_pools = 0;
   {
-    LabPipeline plain(*lab, "a", domain, tv::transport::kHostProfile, dir, {});
-    const auto consumer = participant(domain, tv::transport::kHostProfile, "plain-consumer");
+    LabPipeline plain(*lab, "a", plain_domain, tv::transport::kHostProfile, dir, {});
+    const auto consumer = participant(plain_domain, tv::transport::kHostProfile, "plain-consumer");
     tv::transport::Reader<tv::RangeArray> ranges(*consumer, tv::transport::topics::kRanges,
                                                  tv::transport::event_topic_qos(64));
     plain_hops = range_hops(ranges, 30, 150s);
@@ -177,7 +185,13 @@ TEST(Security, PipelineRunsAuthenticatedAndStrangersNeitherReadNorInject) {
   tv::transport::Writer<tv::DetectionArray> injected(*stranger, tv::transport::topics::kDetections,
                                                      tv::transport::event_topic_qos());
   const std::vector<double> secured_hops = range_hops(ranges, 30, 150s);
-  ASSERT_GE(secured_hops.size(), 10u) << "the secured pipeline gave no ranges\n" << secured.logs();
+  if (secured_hops.size() < 10u) {
+    // Stopped first, so that each service's log ends with its counts (frames processed,
+    // dropped, answered): they say which stage never got its input.
+    secured.stop();
+    FAIL() << "the secured pipeline gave " << secured_hops.size() << " range arrays\n"
+           << secured.logs();
+  }
   const int secured_pools = data_sharing_pools_read(secured.pid("thermovis-rectify-fuse"));
   std::cout << "range -> consumer p50 on one host: unsecured " << median(plain_hops)
             << " ms, secured (encrypted) " << median(secured_hops) << " ms (" << plain_hops.size()

@@ -98,22 +98,36 @@ std::filesystem::path temp_dir(const std::string& name) {
   return dir;
 }
 
+namespace {
+
+// The first domain of 20..232 from `start` on whose lock file this process gets the lock (held
+// until the process exits: the file stays open), other than `not_this`.
+int lock_free_domain(int start, int not_this) {
+  constexpr int kFirst = 20, kCount = 213;  // domains 20..232
+  for (int i = 0; i < kCount; ++i) {
+    const int d = kFirst + (start + i) % kCount;
+    if (d == not_this) continue;
+    const std::string lock = (std::filesystem::temp_directory_path() /
+                              ("thermovis-test-domain-" + std::to_string(d) + ".lock"))
+                                 .string();
+    const int fd = ::open(lock.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0666);
+    if (fd < 0) continue;
+    if (::flock(fd, LOCK_EX | LOCK_NB) == 0) return d;  // fd stays open: the lock is held
+    ::close(fd);
+  }
+  throw std::runtime_error("no free DDS domain for this test: all 213 are held");
+}
+
+}  // namespace
+
 int private_domain() {
-  static const int domain = [] {
-    constexpr int kFirst = 20, kCount = 213;  // domains 20..232
-    const int start = static_cast<int>(::getpid() % kCount);
-    for (int i = 0; i < kCount; ++i) {
-      const int d = kFirst + (start + i) % kCount;
-      const std::string lock = (std::filesystem::temp_directory_path() /
-                                ("thermovis-test-domain-" + std::to_string(d) + ".lock"))
-                                   .string();
-      const int fd = ::open(lock.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0666);
-      if (fd < 0) continue;
-      if (::flock(fd, LOCK_EX | LOCK_NB) == 0) return d;  // fd stays open: the lock is held
-      ::close(fd);
-    }
-    throw std::runtime_error("no free DDS domain for this test: all 213 are held");
-  }();
+  static const int domain = lock_free_domain(static_cast<int>(::getpid() % 213), -1);
+  return domain;
+}
+
+int second_private_domain() {
+  static const int domain =
+      lock_free_domain(static_cast<int>(::getpid() % 213) + 1, private_domain());
   return domain;
 }
 

@@ -34,6 +34,9 @@ std::filesystem::path temp_dir(const std::string& name);
 // a pid-dependent place) whose lock file in the temp folder this process can lock. The lock is
 // held until the process exits, so tests running in parallel never share a domain.
 int private_domain();
+// Another such domain, distinct from private_domain(): for a test whose two stages' participants
+// must not meet (a stage's departing participants are still announced for a while).
+int second_private_domain();
 
 }  // namespace thermovis::test
 
