@@ -236,7 +236,7 @@ namespace {
 // height. Replaces `distances` and `centres` (left rectified frame) in place; `per_px` is scaled
 // with the distances.
 void move_points_to_centre(const RangingGeometry& g, const cv::Rect& box, const TargetShape& shape,
-                           const std::vector<PointTriangulation>& points,
+                           double contour_reach_px, const std::vector<PointTriangulation>& points,
                            std::vector<double>& distances, std::vector<Eigen::Vector3d>& centres,
                            std::vector<double>& per_px) {
   // Vertical (down) in the left rectified frame: the rig frame's +y.
@@ -277,6 +277,7 @@ void move_points_to_centre(const RangingGeometry& g, const cv::Rect& box, const 
   for (const auto& s : shape.sections) widest = std::max(widest, s.half_width_m);
   const double scale = std::clamp(half_width_slope * z0 / widest, 0.7, 1.3);
   const double height_m = (bottom - top) * z0;
+  const double reach_m = std::max(0.0, contour_reach_px) * z0 / g.grid.intrinsics().f;
   const double mid = 0.5 * (top + bottom);
   for (size_t i = 0; i < points.size(); ++i) {
     const Eigen::Vector3d& P = points[i].position_left_rect;
@@ -294,7 +295,11 @@ void move_points_to_centre(const RangingGeometry& g, const cv::Rect& box, const 
       }
       if (a <= width) continue;  // the outermost section at this height
       width = a;
-      offset = std::abs(x) < a ? b * std::sqrt(1.0 - (x / a) * (x / a)) : 0.0;
+      // The depth of the outermost surface the point's patch covers: where the occluding
+      // contour falls inside the patch, the contour (the strongest edge, at the axis depth in
+      // both eyes) is what the correlation aligns, not the surface at the patch's centre.
+      const double xe = std::abs(x) + reach_m;
+      offset = xe < a ? b * std::sqrt(1.0 - (xe / a) * (xe / a)) : 0.0;
     }
     const double axis_depth = depths[i] + offset;
     centres[i] = axis_depth * (ahead + mid * down);
@@ -370,7 +375,8 @@ TargetRange range_target(const RangingGeometry& geometry, const cv::Rect& box,
     per_px.push_back(t.distance_per_px);
   }
   if (!options.shape.empty() && !points.empty()) {
-    move_points_to_centre(geometry, inside, options.shape, points, distances, centres, per_px);
+    move_points_to_centre(geometry, inside, options.shape, options.contour_reach_px, points,
+                          distances, centres, per_px);
   }
   if (points.empty()) {
     if (r.at_image_edge) {

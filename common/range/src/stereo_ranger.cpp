@@ -217,7 +217,9 @@ RangedTarget StereoRanger::range(const RectifiedFrames& frames, Mode mode, const
     mo.min_disparity_px = 0.0;
     mo.max_disparity_px = max_disparity_for(geo, options.min_distance_m);
     matching = match::match_box(left, right, pair_box, mo);
-    TargetRange r = range_target(geo, pair_box, matching.matches, options.range);
+    RangeOptions ro = options.range;
+    ro.contour_reach_px = mo.patch_radius;  // the patch that was correlated
+    TargetRange r = range_target(geo, pair_box, matching.matches, ro);
     if (options.range.shape.empty()) move_to_centre(r, geo, options.centre_offset_m);
     return r;
   };

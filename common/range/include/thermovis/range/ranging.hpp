@@ -119,10 +119,11 @@ struct TargetShape {
 
 struct RangeOptions {
   int min_points = 3;  // kept points needed for a distance
-  // Floor of the disparity error that averaging keeps, px: on the simulated scenes the points on
-  // a person carry a mean disparity error of 0.03-0.2 px (`thermovis bench ranging --points`:
-  // patches straddling the body's edge), and 0.08 px puts about 68 % of the errors in one sigma.
-  double systematic_disparity_px = 0.08;
+  // Floor of the disparity error that averaging keeps, px (sub-pixel interpolation's own bias,
+  // what remains of the contour effect below). With contour_reach_px and shape_sigma_m below,
+  // 0.05 px puts 65-76 % of the errors within one sigma (`thermovis bench ranging --trials 8
+  // --mode all --json`, seeds 7, 11 and 13 pooled, about 145 targets per mode).
+  double systematic_disparity_px = 0.05;
   int bootstrap_samples = 100;   // resamples for the uncertainty
   int edge_margin_px = 5;        // a box this close to the image border is at the edge
   int max_rejection_passes = 1;  // Eq. 34 passes (1 = the paper's)
@@ -130,9 +131,16 @@ struct RangeOptions {
   // TargetShape) before Eq. 34, and the centre is reported. The vertical is the rig frame's +y
   // (T_ref_left_rect: the rig is level).
   TargetShape shape;
+  // With a shape: how far from its centre a point's correlation patch reaches, px (the matcher's
+  // patch radius, match::MatchOptions::patch_radius). A point whose patch holds the target's
+  // occluding contour is ranged at the contour's depth (the axis), not at its centre's surface:
+  // the contour is the patch's strongest edge and the same in both eyes. Without this, points
+  // inside the silhouette's edge were moved too far back (+0.03 m at 5 m, +0.04 m at 10 m).
+  double contour_reach_px = 4.0;
   // One-sigma error of the shape's centre (build, heading, pose of the real target against the
-  // model), m; added to the uncertainty when a shape is used.
-  double shape_sigma_m = 0.03;
+  // model), m; added to the uncertainty when a shape is used. On the simulated people (the
+  // model's own shape, any heading) the fused error at 5-10 m is 0.01-0.02 m in all.
+  double shape_sigma_m = 0.015;
 };
 
 struct TargetRange {
