@@ -147,15 +147,13 @@ void RangeNode::answer(const MatchArray& matches) {
     range::TargetRange r = range_one(*entries.front(), shared_sigma);
     Band band = entries.front()->band();
     if (entries.size() == 2) {
-      const range::TargetRange second = range_one(*entries[1], shared_sigma);
-      if (r.status == range::RangeStatus::ok && second.status == range::RangeStatus::ok) {
-        // Two pairs' independent measurements; the shape's error is one error in both.
-        r = range::combine_ranges(r, second, geometry_.visible, shared_sigma);
-        band = BAND_FUSED;
-      } else if (second.status == range::RangeStatus::ok) {
-        r = second;
-        band = entries[1]->band();
-      }
+      // Two pairs' independent measurements (the shape's error is one error in both), or the
+      // one pair that gave a range.
+      range::CombinedFrom from = range::CombinedFrom::neither;
+      r = range::combine_ranges(r, range_one(*entries[1], shared_sigma), geometry_.visible,
+                                shared_sigma, &from);
+      if (from == range::CombinedFrom::both) band = BAND_FUSED;
+      if (from == range::CombinedFrom::b) band = entries[1]->band();
     }
     if (r.status != range::RangeStatus::ok || !std::isfinite(r.distance_m)) {
       ++stats_.unranged;

@@ -465,9 +465,14 @@ void move_to_centre(TargetRange& range, const RangingGeometry& geometry, double 
 }
 
 TargetRange combine_ranges(const TargetRange& a, const TargetRange& b,
-                           const RangingGeometry& report, double shared_sigma_m) {
+                           const RangingGeometry& report, double shared_sigma_m,
+                           CombinedFrom* from) {
   const bool a_ok = a.status == RangeStatus::ok && std::isfinite(a.sigma_m) && a.sigma_m > 0;
   const bool b_ok = b.status == RangeStatus::ok && std::isfinite(b.sigma_m) && b.sigma_m > 0;
+  if (from != nullptr) {
+    *from = a_ok ? (b_ok ? CombinedFrom::both : CombinedFrom::a)
+                 : (b_ok ? CombinedFrom::b : CombinedFrom::neither);
+  }
   if (!a_ok && !b_ok) {
     TargetRange r = a;
     if (a.status == RangeStatus::ok || b.status == RangeStatus::ok) {

@@ -105,6 +105,37 @@ tv::rectify::StereoGeometry pipeline_geometry() {
                                      tv::node::GridOptions{});
 }
 
+// Matches of a marker 12 m ahead (0.3 m right, 0.2 m down) on the pipeline's visible grid, as
+// the matcher sends them: a 5 x 5 grid of points 3 cm apart.
+tv::TargetMatch marker_ahead(std::uint32_t id, tv::Band band) {
+  const auto geometry = pipeline_geometry();
+  tv::TargetMatch target;
+  target.target_id(id);
+  target.band(band);
+  target.label("marker");  // no surface-to-centre offset beyond 0.033 m
+  Eigen::Vector2d centre;
+  double disparity = 0;
+  EXPECT_TRUE(tv::range::project_point(geometry.grid, geometry.baseline_m, {0.3, 0.2, 12.0}, centre,
+                                       disparity));
+  target.box(
+      box2d(static_cast<float>(centre.x() - 10), static_cast<float>(centre.y() - 10), 20.f, 20.f));
+  for (int dy = -6; dy <= 6; dy += 3) {
+    for (int dx = -6; dx <= 6; dx += 3) {
+      const Eigen::Vector3d p(0.3 + dx * 0.01, 0.2 + dy * 0.01, 12.0);
+      Eigen::Vector2d px;
+      double d = 0;
+      EXPECT_TRUE(tv::range::project_point(geometry.grid, geometry.baseline_m, p, px, d));
+      tv::PointMatch m;
+      m.left_x(static_cast<float>(px.x()));
+      m.left_y(static_cast<float>(px.y()));
+      m.right_x(static_cast<float>(px.x() - d));
+      m.right_y(static_cast<float>(px.y()));
+      target.points().push_back(m);
+    }
+  }
+  return target;
+}
+
 TEST(Services, RangeReportsABadMatchArrayAndServesTheNextGoodOne) {
   Harness h(tv::test::private_domain());
   ChildProcess& range = h.start("thermovis-range");
@@ -132,32 +163,9 @@ TEST(Services, RangeReportsABadMatchArrayAndServesTheNextGoodOne) {
       << reported->message().to_string();
 
   // Then a good one: points of a target 12 m ahead, as the matcher would send them.
-  const auto geometry = pipeline_geometry();
   tv::MatchArray good;
   good.frame_seq(2);
-  tv::TargetMatch target;
-  target.target_id(7);
-  target.label("marker");  // no surface-to-centre offset beyond 0.033 m
-  Eigen::Vector2d centre;
-  double disparity = 0;
-  ASSERT_TRUE(tv::range::project_point(geometry.grid, geometry.baseline_m, {0.3, 0.2, 12.0}, centre,
-                                       disparity));
-  target.box(
-      box2d(static_cast<float>(centre.x() - 10), static_cast<float>(centre.y() - 10), 20.f, 20.f));
-  for (int dy = -6; dy <= 6; dy += 3) {
-    for (int dx = -6; dx <= 6; dx += 3) {
-      const Eigen::Vector3d p(0.3 + dx * 0.01, 0.2 + dy * 0.01, 12.0);
-      Eigen::Vector2d px;
-      double d = 0;
-      ASSERT_TRUE(tv::range::project_point(geometry.grid, geometry.baseline_m, p, px, d));
-      tv::PointMatch m;
-      m.left_x(static_cast<float>(px.x()));
-      m.left_y(static_cast<float>(px.y()));
-      m.right_x(static_cast<float>(px.x() - d));
-      m.right_y(static_cast<float>(px.y()));
-      target.points().push_back(m);
-    }
-  }
+  const tv::TargetMatch target = marker_ahead(7, tv::BAND_VISIBLE);
   good.targets().push_back(target);
   matches.write(good);
   std::optional<tv::RangeArray> answer;
@@ -181,6 +189,64 @@ TEST(Services, RangeReportsABadMatchArrayAndServesTheNextGoodOne) {
   range.signal(SIGTERM);
   EXPECT_EQ(range.wait(20s), 0) << range.log();
   EXPECT_NE(range.log().find("non-finite"), std::string::npos) << "the log names the problem";
+}
+
+// A target id that comes once per pair (`thermovis-match --band both`): both ranged give one
+// range combined from the two (BAND_FUSED) between the two pairs' own; one pair without points
+// gives the other's range and band.
+TEST(Services, RangeCombinesATargetsTwoPairsAndNamesTheBand) {
+  Harness h(tv::test::private_domain());
+  ChildProcess& range = h.start("thermovis-range");
+  tv::transport::Writer<tv::MatchArray> matches(h.participant(), topics::kMatches,
+                                                tv::transport::event_topic_qos());
+  tv::transport::Reader<tv::RangeArray> ranges(h.participant(), topics::kRanges,
+                                               tv::transport::event_topic_qos());
+  ASSERT_TRUE(h.wait_health("thermovis-range", waiting_for_input, 60s)) << range.log();
+  ASSERT_TRUE(matches.wait_for_readers(1, 10000ms));
+  ASSERT_TRUE(ranges.wait_for_writers(1, 10000ms));
+
+  // The same points sent as the infrared pair's: triangulated with that pair's baseline (longer,
+  // and off the grid's axis) they give another distance, so the combination is visible.
+  std::map<std::uint64_t, tv::TargetRange> answers;
+  auto send = [&](std::uint64_t seq, bool visible_points, bool infrared_points) {
+    tv::MatchArray a;
+    a.frame_seq(seq);
+    tv::TargetMatch v = marker_ahead(9, tv::BAND_VISIBLE);
+    tv::TargetMatch ir = marker_ahead(9, tv::BAND_INFRARED);
+    if (!visible_points) v.points().clear();
+    if (!infrared_points) ir.points().clear();
+    a.targets().push_back(v);
+    a.targets().push_back(ir);
+    matches.write(a);
+    EXPECT_TRUE(receive<tv::RangeArray>(
+        ranges,
+        [&](const tv::RangeArray& r) {
+          if (r.frame_seq() == seq && r.targets().size() == 1) answers[seq] = r.targets()[0];
+          return answers.count(seq) > 0;
+        },
+        30s))
+        << "frame " << seq << ": " << range.log();
+  };
+  send(1, true, false);
+  send(2, false, true);
+  send(3, true, true);
+  ASSERT_EQ(answers.size(), 3u) << range.log();
+  const tv::TargetRange &visible = answers[1], &infrared = answers[2], &both = answers[3];
+  EXPECT_EQ(visible.band(), tv::BAND_VISIBLE);
+  EXPECT_EQ(infrared.band(), tv::BAND_INFRARED);
+  EXPECT_EQ(both.band(), tv::BAND_FUSED);
+  for (const tv::TargetRange* r : {&visible, &infrared, &both}) EXPECT_EQ(r->target_id(), 9u);
+  std::cout << "visible pair " << visible.distance_m() << " +- " << visible.sigma_m()
+            << " m, infrared pair " << infrared.distance_m() << " +- " << infrared.sigma_m()
+            << " m, combined " << both.distance_m() << " +- " << both.sigma_m() << " m\n";
+  EXPECT_GT(std::abs(infrared.distance_m() - visible.distance_m()), 0.05);
+  EXPECT_GT(both.distance_m(), std::min(visible.distance_m(), infrared.distance_m()));
+  EXPECT_LT(both.distance_m(), std::max(visible.distance_m(), infrared.distance_m()));
+  EXPECT_LT(both.sigma_m(), std::min(visible.sigma_m(), infrared.sigma_m()));
+  EXPECT_EQ(both.point_count(), visible.point_count() + infrared.point_count());
+
+  range.signal(SIGTERM);
+  EXPECT_EQ(range.wait(20s), 0) << range.log();
 }
 
 // The textured pair (textured_pair.hpp) in the fused band's format, captured at `seq` s.

@@ -265,7 +265,8 @@ TEST(RangeTarget, BadInputSaysWhy) {
 }
 
 // Two pairs' ranges of one target: inverse-variance weights on their own errors, the shared
-// (shape) error kept whole; one failed range gives the other; both failed say why.
+// (shape) error kept whole; one failed range gives the other; both failed say why; `from` says
+// which were used.
 TEST(CombineRanges, WeighsEachPairByItsOwnUncertainty) {
   const cam::RectifiedCamera grid = visible_grid();
   const rg::RangingGeometry report{grid, kBaseline, Eigen::Isometry3d::Identity()};
@@ -277,8 +278,10 @@ TEST(CombineRanges, WeighsEachPairByItsOwnUncertainty) {
   b.position_m = {0.0, 0.0, 21.0};
   b.sigma_m = 0.2;
   b.points_used = 5;
-  rg::TargetRange c = rg::combine_ranges(a, b, report, 0.0);
+  rg::CombinedFrom from = rg::CombinedFrom::neither;
+  rg::TargetRange c = rg::combine_ranges(a, b, report, 0.0, &from);
   ASSERT_EQ(c.status, rg::RangeStatus::ok);
+  EXPECT_EQ(from, rg::CombinedFrom::both);
   // Weights 100 : 25.
   EXPECT_NEAR(c.distance_m, 20.2, 1e-9);
   EXPECT_NEAR(c.depth_m, 20.2, 1e-9);
@@ -301,15 +304,17 @@ TEST(CombineRanges, WeighsEachPairByItsOwnUncertainty) {
   failed.message = "box (x 1, y 1, 8 x 20): 1 point(s) kept by Eq. 34, 3 needed";
   const rg::RangingGeometry shifted{grid, kBaseline,
                                     Eigen::Isometry3d(Eigen::Translation3d(1.0, 0.0, 0.0))};
-  c = rg::combine_ranges(failed, b, shifted, 0.0);
+  c = rg::combine_ranges(failed, b, shifted, 0.0, &from);
   ASSERT_EQ(c.status, rg::RangeStatus::ok);
+  EXPECT_EQ(from, rg::CombinedFrom::b);
   EXPECT_NEAR(c.distance_m, std::hypot(1.0, 21.0), 1e-9);
   EXPECT_DOUBLE_EQ(c.sigma_m, 0.2);
 
   // A range without a finite sigma is not combined.
   rg::TargetRange nan_sigma = b;
   nan_sigma.sigma_m = rg::TargetRange::nan;
-  c = rg::combine_ranges(a, nan_sigma, report, 0.0);
+  c = rg::combine_ranges(a, nan_sigma, report, 0.0, &from);
+  EXPECT_EQ(from, rg::CombinedFrom::a);
   EXPECT_NEAR(c.distance_m, 20.0, 1e-9);
   EXPECT_DOUBLE_EQ(c.sigma_m, 0.1);
 
@@ -317,7 +322,8 @@ TEST(CombineRanges, WeighsEachPairByItsOwnUncertainty) {
   rg::TargetRange none;
   none.status = rg::RangeStatus::no_matches;
   none.message = "no correspondence in the box";
-  c = rg::combine_ranges(failed, none, report, 0.0);
+  c = rg::combine_ranges(failed, none, report, 0.0, &from);
+  EXPECT_EQ(from, rg::CombinedFrom::neither);
   EXPECT_EQ(c.status, rg::RangeStatus::too_few_points);
   EXPECT_TRUE(std::isnan(c.distance_m));
   EXPECT_NE(c.message.find("Eq. 34"), std::string::npos);

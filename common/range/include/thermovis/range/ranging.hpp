@@ -181,9 +181,11 @@ void move_to_centre(TargetRange& range, const RangingGeometry& geometry, double 
 // the weights and added back whole. The result's distance, depth and disparity are those of its
 // position seen from `report`'s left camera; `used` is empty (the points belong to two pairs).
 // When one range failed (or has no finite sigma) the other is returned, re-expressed the same
-// way; when both failed, `a`'s status with both messages.
+// way; when both failed, `a`'s status with both messages. `from` (optional) says which.
+enum class CombinedFrom { neither, a, b, both };
 TargetRange combine_ranges(const TargetRange& a, const TargetRange& b,
-                           const RangingGeometry& report, double shared_sigma_m);
+                           const RangingGeometry& report, double shared_sigma_m,
+                           CombinedFrom* from = nullptr);
 
 // The gross-outlier screen then Eq. 34 (max_passes passes): the indices of the kept values.
 std::vector<int> reject_outliers_eq34(const std::vector<double>& values, int max_passes);
