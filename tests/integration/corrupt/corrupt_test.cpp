@@ -15,6 +15,7 @@
 #include <optional>
 #include <thread>
 
+#include "marker_matches.hpp"
 #include "pipeline_harness.hpp"
 #include "supervisor.hpp"
 #include "textured_pair.hpp"
@@ -35,6 +36,8 @@ namespace {
 using namespace std::chrono_literals;
 using thermovis::test::box2d;
 using thermovis::test::ChildProcess;
+using thermovis::test::marker_matches;
+using thermovis::test::pipeline_geometry;
 using thermovis::test::receive;
 namespace tv = thermovis;
 namespace topics = tv::transport::topics;
@@ -136,40 +139,6 @@ tv::PipelineStamps stamps(std::initializer_list<std::pair<tv::Stage, std::int64_
   return out;
 }
 
-tv::rectify::StereoGeometry pipeline_geometry() {
-  return tv::node::pipeline_geometry(tv::runtime::load_rig(tv::runtime::default_rig_path()),
-                                     tv::node::GridOptions{});
-}
-
-// A target 12 m ahead with the correspondences the matcher would send for it.
-tv::TargetMatch target_at_12m(std::uint32_t id) {
-  const auto geometry = pipeline_geometry();
-  tv::TargetMatch target;
-  target.target_id(id);
-  target.label("marker");
-  target.band(tv::BAND_VISIBLE);
-  Eigen::Vector2d centre;
-  double disparity = 0;
-  tv::range::project_point(geometry.grid, geometry.baseline_m, {0.3, 0.2, 12.0}, centre, disparity);
-  target.box(
-      box2d(static_cast<float>(centre.x() - 10), static_cast<float>(centre.y() - 10), 20.f, 20.f));
-  for (int dy = -6; dy <= 6; dy += 3) {
-    for (int dx = -6; dx <= 6; dx += 3) {
-      Eigen::Vector2d px;
-      double d = 0;
-      tv::range::project_point(geometry.grid, geometry.baseline_m,
-                               {0.3 + dx * 0.01, 0.2 + dy * 0.01, 12.0}, px, d);
-      tv::PointMatch m;
-      m.left_x(static_cast<float>(px.x()));
-      m.left_y(static_cast<float>(px.y()));
-      m.right_x(static_cast<float>(px.x() - d));
-      m.right_y(static_cast<float>(px.y()));
-      target.points().push_back(m);
-    }
-  }
-  return target;
-}
-
 TEST(Corrupt, RangeNamesEveryBadMatchArrayAndServesTheNextGoodOne) {
   Service range("thermovis-range");
   tv::transport::Writer<tv::MatchArray> matches(range.participant(), topics::kMatches,
@@ -188,7 +157,7 @@ TEST(Corrupt, RangeNamesEveryBadMatchArrayAndServesTheNextGoodOne) {
       tv::MatchArray a;
       a.frame_seq(++seq);
       a.capture_time_ns(t0 + static_cast<std::int64_t>(seq) * 20'000'000);
-      a.targets().push_back(target_at_12m(7));
+      a.targets().push_back(marker_matches(7, tv::BAND_VISIBLE));
       corrupt(a);
       matches.write(a);
     };
@@ -203,8 +172,9 @@ TEST(Corrupt, RangeNamesEveryBadMatchArrayAndServesTheNextGoodOne) {
                      "box with no area");
   range.expect_named("unknown band", send([](tv::MatchArray& a) { a.targets()[0].band(9); }),
                      "unknown band 9");
-  range.expect_named("a target id twice",
-                     send([](tv::MatchArray& a) { a.targets().push_back(target_at_12m(7)); }),
+  range.expect_named("a target id twice", send([](tv::MatchArray& a) {
+                       a.targets().push_back(marker_matches(7, tv::BAND_VISIBLE));
+                     }),
                      "target 7 of frame 105: target id given twice");
   range.expect_named("stages out of order", send([&](tv::MatchArray& a) {
                        const std::int64_t c = a.capture_time_ns();

@@ -18,6 +18,7 @@
 #include <random>
 #include <thread>
 
+#include "marker_matches.hpp"
 #include "pipeline_harness.hpp"
 #include "textured_pair.hpp"
 #include "thermovis/node/frame_codec.hpp"
@@ -37,6 +38,8 @@ namespace {
 using namespace std::chrono_literals;
 using thermovis::test::box2d;
 using thermovis::test::ChildProcess;
+using thermovis::test::marker_matches;
+using thermovis::test::pipeline_geometry;
 using thermovis::test::receive;
 namespace tv = thermovis;
 namespace topics = tv::transport::topics;
@@ -100,53 +103,23 @@ bool waiting_for_input(const tv::Health& h) {
   return h.message().to_string().find("waiting") != std::string::npos;
 }
 
-tv::rectify::StereoGeometry pipeline_geometry() {
-  return tv::node::pipeline_geometry(tv::runtime::load_rig(tv::runtime::default_rig_path()),
-                                     tv::node::GridOptions{});
-}
-
-// Matches of a marker 12 m ahead (0.3 m right, 0.2 m down) on the pipeline's visible grid, as
-// the matcher sends them: a 5 x 5 grid of points 3 cm apart.
-tv::TargetMatch marker_ahead(std::uint32_t id, tv::Band band) {
-  const auto geometry = pipeline_geometry();
-  tv::TargetMatch target;
-  target.target_id(id);
-  target.band(band);
-  target.label("marker");  // no surface-to-centre offset beyond 0.033 m
-  Eigen::Vector2d centre;
-  double disparity = 0;
-  EXPECT_TRUE(tv::range::project_point(geometry.grid, geometry.baseline_m, {0.3, 0.2, 12.0}, centre,
-                                       disparity));
-  target.box(
-      box2d(static_cast<float>(centre.x() - 10), static_cast<float>(centre.y() - 10), 20.f, 20.f));
-  for (int dy = -6; dy <= 6; dy += 3) {
-    for (int dx = -6; dx <= 6; dx += 3) {
-      const Eigen::Vector3d p(0.3 + dx * 0.01, 0.2 + dy * 0.01, 12.0);
-      Eigen::Vector2d px;
-      double d = 0;
-      EXPECT_TRUE(tv::range::project_point(geometry.grid, geometry.baseline_m, p, px, d));
-      tv::PointMatch m;
-      m.left_x(static_cast<float>(px.x()));
-      m.left_y(static_cast<float>(px.y()));
-      m.right_x(static_cast<float>(px.x() - d));
-      m.right_y(static_cast<float>(px.y()));
-      target.points().push_back(m);
-    }
+// thermovis-range on a private domain, this test writing its matches and reading its ranges.
+class RangeService : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    ASSERT_TRUE(h.wait_health("thermovis-range", waiting_for_input, 60s)) << range.log();
+    ASSERT_TRUE(matches.wait_for_readers(1, 10000ms));
+    ASSERT_TRUE(ranges.wait_for_writers(1, 10000ms));
   }
-  return target;
-}
-
-TEST(Services, RangeReportsABadMatchArrayAndServesTheNextGoodOne) {
-  Harness h(tv::test::private_domain());
+  Harness h{tv::test::private_domain()};
   ChildProcess& range = h.start("thermovis-range");
-  tv::transport::Writer<tv::MatchArray> matches(h.participant(), topics::kMatches,
-                                                tv::transport::event_topic_qos());
-  tv::transport::Reader<tv::RangeArray> ranges(h.participant(), topics::kRanges,
-                                               tv::transport::event_topic_qos());
-  ASSERT_TRUE(h.wait_health("thermovis-range", waiting_for_input, 60s)) << range.log();
-  ASSERT_TRUE(matches.wait_for_readers(1, 10000ms));
-  ASSERT_TRUE(ranges.wait_for_writers(1, 10000ms));
+  tv::transport::Writer<tv::MatchArray> matches{h.participant(), topics::kMatches,
+                                                tv::transport::event_topic_qos()};
+  tv::transport::Reader<tv::RangeArray> ranges{h.participant(), topics::kRanges,
+                                               tv::transport::event_topic_qos()};
+};
 
+TEST_F(RangeService, ReportsABadMatchArrayAndServesTheNextGoodOne) {
   // A target whose box has a NaN corner.
   tv::MatchArray bad;
   bad.frame_seq(1);
@@ -165,7 +138,7 @@ TEST(Services, RangeReportsABadMatchArrayAndServesTheNextGoodOne) {
   // Then a good one: points of a target 12 m ahead, as the matcher would send them.
   tv::MatchArray good;
   good.frame_seq(2);
-  const tv::TargetMatch target = marker_ahead(7, tv::BAND_VISIBLE);
+  const tv::TargetMatch target = marker_matches(7, tv::BAND_VISIBLE);
   good.targets().push_back(target);
   matches.write(good);
   std::optional<tv::RangeArray> answer;
@@ -194,25 +167,15 @@ TEST(Services, RangeReportsABadMatchArrayAndServesTheNextGoodOne) {
 // A target id that comes once per pair (`thermovis-match --band both`): both ranged give one
 // range combined from the two (BAND_FUSED) between the two pairs' own; one pair without points
 // gives the other's range and band.
-TEST(Services, RangeCombinesATargetsTwoPairsAndNamesTheBand) {
-  Harness h(tv::test::private_domain());
-  ChildProcess& range = h.start("thermovis-range");
-  tv::transport::Writer<tv::MatchArray> matches(h.participant(), topics::kMatches,
-                                                tv::transport::event_topic_qos());
-  tv::transport::Reader<tv::RangeArray> ranges(h.participant(), topics::kRanges,
-                                               tv::transport::event_topic_qos());
-  ASSERT_TRUE(h.wait_health("thermovis-range", waiting_for_input, 60s)) << range.log();
-  ASSERT_TRUE(matches.wait_for_readers(1, 10000ms));
-  ASSERT_TRUE(ranges.wait_for_writers(1, 10000ms));
-
+TEST_F(RangeService, CombinesATargetsTwoPairsAndNamesTheBand) {
   // The same points sent as the infrared pair's: triangulated with that pair's baseline (longer,
   // and off the grid's axis) they give another distance, so the combination is visible.
   std::map<std::uint64_t, tv::TargetRange> answers;
   auto send = [&](std::uint64_t seq, bool visible_points, bool infrared_points) {
     tv::MatchArray a;
     a.frame_seq(seq);
-    tv::TargetMatch v = marker_ahead(9, tv::BAND_VISIBLE);
-    tv::TargetMatch ir = marker_ahead(9, tv::BAND_INFRARED);
+    tv::TargetMatch v = marker_matches(9, tv::BAND_VISIBLE);
+    tv::TargetMatch ir = marker_matches(9, tv::BAND_INFRARED);
     if (!visible_points) v.points().clear();
     if (!infrared_points) ir.points().clear();
     a.targets().push_back(v);
