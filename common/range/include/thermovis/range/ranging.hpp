@@ -132,11 +132,12 @@ struct RangeOptions {
   // (T_ref_left_rect: the rig is level).
   TargetShape shape;
   // With a shape: how far from its centre a point's correlation patch reaches, px (the matcher's
-  // patch radius, match::MatchOptions::patch_radius). A point whose patch holds the target's
+  // patch radius, match::MatchOptions::patch_radius, whose default this follows; StereoRanger
+  // sets the radius it matched with). A point whose patch holds the target's
   // occluding contour is ranged at the contour's depth (the axis), not at its centre's surface:
   // the contour is the patch's strongest edge and the same in both eyes. Without this, points
   // inside the silhouette's edge were moved too far back (+0.03 m at 5 m, +0.04 m at 10 m).
-  double contour_reach_px = 4.0;
+  double contour_reach_px = match::MatchOptions{}.patch_radius;
   // One-sigma error of the shape's centre (build, heading, pose of the real target against the
   // model), m; added to the uncertainty when a shape is used. On the simulated people (the
   // model's own shape, any heading) the fused error at 5-10 m is 0.01-0.02 m in all.
