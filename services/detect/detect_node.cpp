@@ -1,7 +1,5 @@
 #include "detect_node.hpp"
 
-#include <iostream>
-
 #include <cmath>
 #include <thread>
 
@@ -27,53 +25,54 @@ std::string clipped_label(const std::string& label) { return label.substr(0, MAX
 
 }  // namespace
 
-DetectNode::DetectNode(transport::Participant& participant, const camera::Rig& rig,
-                       const DetectConfig& config, const std::string& service_name)
+DetectNode::DetectNode(transport::Participant& participant, const DetectConfig& config,
+                       const std::string& service_name)
     : config_(config),
-      grid_(node::pipeline_geometry(rig, config.grid).grid),
+      stage_(participant, config.detect),
       infrared_in_(participant, transport::topics::kRectifiedInfrared,
                    frame_reader_qos(config.deadline)),
       out_(participant, transport::topics::kDetections, transport::event_topic_qos()),
-      health_(participant, service_name, [this] {
-        std::vector<transport::TopicCountersSnapshot> counters{infrared_in_.counters(),
-                                                               out_.counters()};
-        if (fused_in_) counters.push_back(fused_in_->counters());
-        return counters;
-      }) {
-  if (config_.hog) {
+      health_(participant, service_name,
+              [this] {
+                std::vector<transport::TopicCountersSnapshot> counters{
+                    infrared_in_.counters(), out_.counters(), stage_.counters()};
+                if (fused_in_) counters.push_back(fused_in_->counters());
+                return counters;
+              }),
+      sequence_(service_name, "rectified infrared frame"),
+      fused_(2) {
+  if (config_.detect.hog) {
     fused_in_ = std::make_unique<transport::Reader<GridStereoFrame>>(
         participant, transport::topics::kFused, frame_reader_qos(config.deadline));
   }
-  health_.set_state(HEALTH_STARTING, "waiting for rectified infrared frames");
+  health_.set_state(HEALTH_STARTING, "no grid geometry yet (thermovis/geometry)");
+}
+
+DetectStats DetectNode::stats() const {
+  DetectStats s = stats_;
+  s.repeated = sequence_.repeated();
+  s.bad += sequence_.stale();
+  return s;
 }
 
 void DetectNode::run() {
+  node::wait_for_geometry(stage_, health_, "rectified infrared frames", node::stop_requested);
   while (!node::stop_requested()) {
     health_.tick();
+    const bool have_stage = stage_.refresh(health_);
     if (!infrared_in_.wait_for_data(std::chrono::milliseconds(100))) continue;
     auto frames = infrared_in_.take();
     if (frames.empty()) continue;
     stats_.dropped += frames.size() - 1;  // only the newest is worth the time
     const std::size_t newest = frames.size() - 1;
-    const std::uint64_t last_seq = order_.last_seq();
-    switch (order_.check(frames[newest].seq(), frames[newest].capture_time_ns())) {
-      case node::FrameOrder::Verdict::repeated:
-        ++stats_.repeated;  // a frame seen before: never processed twice
-        continue;
-      case node::FrameOrder::Verdict::stale:
-        ++stats_.bad;
-        health_.bad_input("rectified infrared frame " + std::to_string(frames[newest].seq()) +
-                          " captured before frame " + std::to_string(last_seq) +
-                          ": out of order, dropped");
-        continue;
-      case node::FrameOrder::Verdict::restarted:
-        std::cerr << "thermovis-detect: rectified infrared frames start again at "
-                  << frames[newest].seq() << " after " << last_seq
-                  << " with a later capture time (their writer restarted)" << std::endl;
-        break;
-      case node::FrameOrder::Verdict::next:
-        break;
+    if (!have_stage) {
+      ++stats_.no_geometry;
+      continue;
     }
+    if (!sequence_.admit(frames[newest].seq(), frames[newest].capture_time_ns(), health_)) {
+      continue;
+    }
+    if (sequence_.last_verdict() == node::FrameOrder::Verdict::restarted) fused_.clear();
     try {
       const DetectionArray out = detect(frames[newest]);
       if (!frames.still_valid(newest)) {
@@ -100,39 +99,36 @@ void DetectNode::run() {
   health_.set_state(HEALTH_STOPPING, "processed " + std::to_string(stats_.processed));
 }
 
-cv::Mat DetectNode::fused_left_for(std::uint64_t seq) {
-  // rectify-fuse publishes the fused frame of a capture after its rectified pairs (once the
-  // fusion is done): wait for it a while, never for a capture already passed.
-  const auto until = std::chrono::steady_clock::now() + kFusedWait;
-  while (std::chrono::steady_clock::now() < until && !node::stop_requested()) {
-    auto fused = fused_in_->take();
-    for (std::size_t i = 0; i < fused.size(); ++i) {
-      if (fused[i].seq() == seq)
-        return node::view(fused[i], node::Eye::left, grid_.image_size()).clone();
-      if (fused[i].seq() > seq) return {};
-    }
-    fused_in_->wait_for_data(std::chrono::milliseconds(2));
+void DetectNode::take_fused(std::chrono::milliseconds wait, std::uint64_t from_seq) {
+  if (wait.count() > 0) fused_in_->wait_for_data(wait);
+  auto fused = fused_in_->take();
+  for (std::size_t i = 0; i < fused.size(); ++i) {
+    // Only captures not yet passed are worth the copy.
+    if (fused[i].seq() < from_seq) continue;
+    fused_.push(
+        fused[i].seq(),
+        node::view(fused[i], node::Eye::left, stage_.geometry().grid_size(), stage_.id()).clone());
   }
-  return {};
 }
 
 DetectionArray DetectNode::detect(const GridStereoFrame& infrared) {
   const std::int64_t start_ns = transport::now_ns();
-  const cv::Mat left = node::view(infrared, node::Eye::left, grid_.image_size());
-  if (left.type() != CV_8UC1 && left.type() != CV_16UC1) {
-    throw node::FrameError("rectified infrared frame " + std::to_string(infrared.seq()) +
-                           ": expected MONO8 or MONO16 pixels");
-  }
-  std::vector<detect::Detection> found = detect::detect_warm_blobs(left, grid_, config_.blobs);
+  const cv::Mat left =
+      node::view(infrared, node::Eye::left, stage_.geometry().grid_size(), stage_.id());
+  cv::Mat fused;
   if (fused_in_) {
-    const cv::Mat fused = fused_left_for(infrared.seq());
-    if (!fused.empty()) {
-      auto people = detect::detect_people_hog(fused, config_.hog_options);
-      found.insert(found.end(), people.begin(), people.end());
-    }
+    // rectify-fuse publishes the fused frame of a capture after its rectified pairs (once the
+    // fusion is done): wait for it a while, never for a capture already passed.
+    const std::uint64_t seq = infrared.seq();
+    const cv::Mat* found = node::join<cv::Mat>(
+        fused_, seq, kFusedWait,
+        [this, seq](std::chrono::milliseconds wait) { take_fused(wait, seq); },
+        node::stop_requested);
+    if (found != nullptr) fused = *found;
+    fused_.drop_through(seq);
   }
-  found = detect::merge_detections(std::move(found), config_.nms_iou);
-  // merge_detections returns them strongest first: the strongest fit the message.
+  std::vector<detect::Detection> found = stage_.stage().detect(left, fused);
+  // The stage returns them strongest first: the strongest fit the message.
   if (found.size() > MAX_TARGETS) found.resize(MAX_TARGETS);
 
   DetectionArray out;

@@ -4,7 +4,6 @@
 
 #include "detect_node.hpp"
 #include "thermovis/node/service.hpp"
-#include "thermovis/runtime/rig_io.hpp"
 
 int main(int argc, char** argv) {
   using namespace thermovis;
@@ -13,14 +12,13 @@ int main(int argc, char** argv) {
   common.service = "thermovis-detect";
   detect_service::DetectConfig config;
   double deadline_ms = 20.0;
-  node::add_common_options(app, common);
-  node::add_grid_options(app, config.grid);
-  app.add_flag("--hog", config.hog, "also run the HOG people detector on the fused image");
-  app.add_option("--k-sigma", config.blobs.k_sigma,
+  node::add_common_options(app, common, /*with_rig=*/false);
+  app.add_flag("--hog", config.detect.hog, "also run the HOG people detector on the fused image");
+  app.add_option("--k-sigma", config.detect.blobs.k_sigma,
                  "warm blobs: threshold over the background median, robust sigmas")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
-  app.add_option("--camera-height-m", config.blobs.camera_height_m,
+  app.add_option("--camera-height-m", config.detect.blobs.camera_height_m,
                  "height of the rig above the ground (person size check)")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
@@ -36,9 +34,8 @@ int main(int argc, char** argv) {
   config.debug_delay = std::chrono::milliseconds(debug_delay_ms);
 
   return node::run_service(common, [&] {
-    const auto rig = runtime::load_rig_or_default(common.rig);
     auto participant = node::make_participant(common);
-    detect_service::DetectNode detector(*participant, rig, config, common.service);
+    detect_service::DetectNode detector(*participant, config, common.service);
     detector.run();
     const auto stats = detector.stats();
     std::cerr << common.service << ": processed " << stats.processed << ", dropped "

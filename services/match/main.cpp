@@ -4,7 +4,6 @@
 
 #include "match_node.hpp"
 #include "thermovis/node/service.hpp"
-#include "thermovis/runtime/rig_io.hpp"
 
 int main(int argc, char** argv) {
   using namespace thermovis;
@@ -14,8 +13,7 @@ int main(int argc, char** argv) {
   match_service::MatchConfig config;
   std::string method = "ncc";
   double deadline_ms = 20.0;
-  node::add_common_options(app, common);
-  node::add_grid_options(app, config.grid);
+  node::add_common_options(app, common, /*with_rig=*/false);
   std::string band = "both";
   app.add_option("--band", band,
                  "frames to match: both (each box on both pairs; the range stage combines "
@@ -23,11 +21,11 @@ int main(int argc, char** argv) {
                  "| infrared | fused")
       ->capture_default_str()
       ->check(CLI::IsMember({"both", "auto", "visible", "infrared", "fused"}));
-  app.add_option("--min-visible-points", config.min_visible_points,
+  app.add_option("--min-visible-points", config.match.min_visible_points,
                  "auto: fewer visible correspondences than this -> the infrared pair")
       ->capture_default_str();
   app.add_option("--method", method, "ncc | orb | akaze | sift | sgbm")->capture_default_str();
-  app.add_option("--min-distance-m", config.min_distance_m,
+  app.add_option("--min-distance-m", config.match.min_distance_m,
                  "nearest target searched (sets the largest disparity)")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
@@ -43,11 +41,10 @@ int main(int argc, char** argv) {
   config.deadline = node::deadline_from_ms(deadline_ms);
 
   return node::run_service(common, [&] {
-    config.match.method = match::parse_method(method);
-    config.band = match_service::parse_band(band);
-    const auto rig = runtime::load_rig_or_default(common.rig);
+    config.match.match.method = match::parse_method(method);
+    config.match.band = pipeline::parse_band_choice(band);
     auto participant = node::make_participant(common);
-    match_service::MatchNode matcher(*participant, rig, config, common.service);
+    match_service::MatchNode matcher(*participant, config, common.service);
     matcher.run();
     const auto stats = matcher.stats();
     std::cerr << common.service << ": answered " << stats.processed << ", without frame "

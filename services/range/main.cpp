@@ -4,7 +4,6 @@
 
 #include "range_node.hpp"
 #include "thermovis/node/service.hpp"
-#include "thermovis/runtime/rig_io.hpp"
 
 int main(int argc, char** argv) {
   using namespace thermovis;
@@ -12,22 +11,21 @@ int main(int argc, char** argv) {
   node::CommonOptions common;
   common.service = "thermovis-range";
   range_service::RangeConfig config;
-  node::add_common_options(app, common);
-  node::add_grid_options(app, config.grid);
-  app.add_option("--min-points", config.range.min_points, "kept points needed for a distance")
+  node::add_common_options(app, common, /*with_rig=*/false);
+  app.add_option("--min-points", config.range.range.min_points, "kept points needed for a distance")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
-  app.add_flag("--surface", config.surface,
+  app.add_flag("--surface", config.range.surface,
                "report the distance of the target's visible surface, not of its centre");
   CLI11_PARSE(app, argc, argv);
 
   return node::run_service(common, [&] {
-    const auto rig = runtime::load_rig_or_default(common.rig);
     auto participant = node::make_participant(common);
-    range_service::RangeNode ranger(*participant, rig, config, common.service);
+    range_service::RangeNode ranger(*participant, config, common.service);
     ranger.run();
     const auto stats = ranger.stats();
     std::cerr << common.service << ": answered " << stats.processed << ", ranged " << stats.ranged
-              << ", unranged " << stats.unranged << ", bad " << stats.bad << "\n";
+              << ", unranged " << stats.unranged << ", bad " << stats.bad
+              << ", before the geometry " << stats.no_geometry << "\n";
   });
 }

@@ -4,6 +4,7 @@
 
 #include "rectify_fuse_node.hpp"
 #include "thermovis/node/service.hpp"
+#include "thermovis/runtime/grid_options.hpp"
 #include "thermovis/runtime/rig_io.hpp"
 
 int main(int argc, char** argv) {
@@ -16,7 +17,7 @@ int main(int argc, char** argv) {
   double deadline_ms = 20.0;
   bool no_enhance = false;
   node::add_common_options(app, common);
-  node::add_grid_options(app, config.grid);
+  runtime::add_grid_options(app, config.grid);
   app.add_option("--fusion", method, "fast | vsmwls | vsmwls-paper")->capture_default_str();
   app.add_flag("--no-enhance", no_enhance, "skip the visible contrast enhancement");
   std::string fused_eyes = "left";
@@ -37,8 +38,8 @@ int main(int argc, char** argv) {
   return node::run_service(common, [&] {
     const auto parsed = fuse::method_from_name(method);
     if (!parsed) throw std::invalid_argument("unknown fusion method '" + method + "'");
-    config.fusion.method = *parsed;
-    if (no_enhance) config.fusion.enhance_visible.reset();
+    config.stage.fusion.method = *parsed;
+    if (no_enhance) config.stage.fusion.enhance_visible.reset();
     config.fuse_right_eye = fused_eyes == "both";
     config.parallel_bands = parallel_bands;
     config.deadline = std::chrono::nanoseconds(static_cast<std::int64_t>(deadline_ms * 1e6));

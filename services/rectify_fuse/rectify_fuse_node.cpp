@@ -1,7 +1,6 @@
 #include "rectify_fuse_node.hpp"
 
 #include <future>
-#include <iostream>
 
 #include "thermovis/node/frame_codec.hpp"
 #include "thermovis/node/service.hpp"
@@ -14,6 +13,10 @@ namespace thermovis::rectify_fuse {
 namespace {
 
 using node::Eye;
+
+// How long a visible capture waits for its infrared partner (the bridge publishes the two
+// together).
+constexpr std::chrono::milliseconds kPartnerWait{20};
 
 // Readers of raw frames: this node holds at most one sample of each band while pairing.
 transport::TopicQos raw_qos(std::chrono::nanoseconds deadline) {
@@ -30,16 +33,15 @@ transport::TopicQos grid_qos(std::chrono::nanoseconds deadline) {
   return transport::frame_topic_qos(deadline, 2, kGridFrameReaders);
 }
 
-std::unique_ptr<fpga::FastRemapper> remapper(const cv::Mat& map, const camera::RigCamera& camera) {
-  return std::make_unique<fpga::FastRemapper>(
-      fpga::FixedPointMap::from_float(map, camera.model->image_size()));
-}
-
-void copy_header(const VisibleStereoFrame& from, GridStereoFrame& to, std::int64_t start_ns) {
-  to.seq(from.seq());
-  to.capture_time_ns(from.capture_time_ns());
-  to.stamps(from.stamps());
-  transport::append_stamp(to.stamps(), STAGE_RECTIFY_FUSE, start_ns, transport::now_ns());
+// The geometry of the configured grid, checked against what a GridStereoFrame can carry.
+pipeline::PipelineGeometry grid_geometry(const camera::Rig& rig, const pipeline::GridOptions& o) {
+  pipeline::PipelineGeometry g = pipeline::make_geometry(rig, o);
+  if (static_cast<std::size_t>(g.grid_size().area()) * 3 > GRID_IMAGE_BYTES) {
+    throw std::invalid_argument("rectified grid " + std::to_string(g.grid.width) + "x" +
+                                std::to_string(g.grid.height) +
+                                " does not fit the GridStereoFrame type; choose a smaller width");
+  }
+  return g;
 }
 
 }  // namespace
@@ -47,6 +49,8 @@ void copy_header(const VisibleStereoFrame& from, GridStereoFrame& to, std::int64
 RectifyFuseNode::RectifyFuseNode(transport::Participant& participant, const camera::Rig& rig,
                                  const RectifyFuseConfig& config, const std::string& service_name)
     : config_(config),
+      stage_(rig, grid_geometry(rig, config.grid), config.stage),
+      geometry_id_(stage_.geometry().id()),
       visible_in_(participant, transport::topics::kVisibleFrames, raw_qos(config.deadline)),
       infrared_in_(participant, transport::topics::kInfraredFrames, raw_qos(config.deadline)),
       rectified_visible_out_(participant, transport::topics::kRectifiedVisible,
@@ -54,35 +58,37 @@ RectifyFuseNode::RectifyFuseNode(transport::Participant& participant, const came
       rectified_infrared_out_(participant, transport::topics::kRectifiedInfrared,
                               grid_qos(config.deadline)),
       fused_out_(participant, transport::topics::kFused, grid_qos(config.deadline)),
-      health_(participant, service_name, [this] {
-        return std::vector<transport::TopicCountersSnapshot>{
-            visible_in_.counters(), infrared_in_.counters(), rectified_visible_out_.counters(),
-            rectified_infrared_out_.counters(), fused_out_.counters()};
-      }) {
-  health_.set_state(HEALTH_STARTING, "computing the composed maps");
-  const rectify::StereoGeometry geometry = node::pipeline_geometry(rig, config_.grid);
-  grid_size_ = geometry.grid.image_size();
-  if (static_cast<std::size_t>(grid_size_.area()) * 3 > GRID_IMAGE_BYTES) {
-    throw std::invalid_argument("rectified grid " + std::to_string(grid_size_.width) + "x" +
-                                std::to_string(grid_size_.height) +
-                                " does not fit the GridStereoFrame type; choose a smaller width");
-  }
-  // Each eye's two cameras on that eye's rectified frame; the infrared ones registered at the
-  // configured distance (their centres are not the eye's).
-  const double registration = config_.grid.registration_distance_m;
-  const auto map_for = [&](const std::string& camera, const Eigen::Isometry3d& T_ref_rect,
-                           double distance) {
-    const auto& cam = rig.camera(camera);
-    return remapper(rectify::build_map(cam, T_ref_rect, geometry.grid, distance), cam);
-  };
-  visible_maps_[0] = map_for(rig.visible.left, geometry.T_ref_left_rect, 0.0);
-  visible_maps_[1] = map_for(rig.visible.right, geometry.T_ref_right_rect, 0.0);
-  infrared_maps_[0] = map_for(rig.infrared.left, geometry.T_ref_left_rect, registration);
-  infrared_maps_[1] = map_for(rig.infrared.right, geometry.T_ref_right_rect, registration);
-  agc_ = {enhance::InfraredAgc(config_.agc), enhance::InfraredAgc(config_.agc)};
-  health_.set_state(HEALTH_STARTING, "grid " + std::to_string(grid_size_.width) + "x" +
-                                         std::to_string(grid_size_.height) +
+      geometry_out_(participant, stage_.geometry()),
+      health_(participant, service_name,
+              [this] {
+                return std::vector<transport::TopicCountersSnapshot>{
+                    visible_in_.counters(),
+                    infrared_in_.counters(),
+                    rectified_visible_out_.counters(),
+                    rectified_infrared_out_.counters(),
+                    fused_out_.counters(),
+                    geometry_out_.counters()};
+              }),
+      sequence_(service_name, "visible frame"),
+      infrared_held_(2) {
+  health_.set_state(HEALTH_STARTING, "grid " + std::to_string(grid_size().width) + "x" +
+                                         std::to_string(grid_size().height) +
                                          ", waiting for frames");
+}
+
+RectifyFuseStats RectifyFuseNode::stats() const {
+  RectifyFuseStats s = stats_;
+  s.repeated = sequence_.repeated();
+  s.bad += sequence_.stale();
+  return s;
+}
+
+void RectifyFuseNode::take_infrared(std::chrono::milliseconds wait) {
+  if (wait.count() > 0) infrared_in_.wait_for_data(wait);
+  auto taken = std::make_shared<transport::Samples<InfraredStereoFrame>>(infrared_in_.take());
+  for (std::size_t i = 0; i < taken->size(); ++i) {
+    infrared_held_.push((*taken)[i].seq(), HeldInfrared{taken, i});
+  }
 }
 
 void RectifyFuseNode::run() {
@@ -95,44 +101,25 @@ void RectifyFuseNode::run() {
     // Only the newest capture is worth processing; older ones are dropped (never queued).
     stats_.dropped += visible.size() - 1;
     const VisibleStereoFrame& vis = visible[visible.size() - 1];
-    const std::uint64_t last_seq = order_.last_seq();
-    switch (order_.check(vis.seq(), vis.capture_time_ns())) {
-      case node::FrameOrder::Verdict::repeated:
-        ++stats_.repeated;  // a capture seen before: never processed twice
-        continue;
-      case node::FrameOrder::Verdict::stale:
+    if (!sequence_.admit(vis.seq(), vis.capture_time_ns(), health_)) continue;
+    if (sequence_.last_verdict() == node::FrameOrder::Verdict::restarted) infrared_held_.clear();
+    // Its infrared partner (same seq) is published with it.
+    const HeldInfrared* infrared = node::join<HeldInfrared>(
+        infrared_held_, vis.seq(), kPartnerWait, [this](milliseconds wait) { take_infrared(wait); },
+        node::stop_requested);
+    if (infrared == nullptr) {
+      ++stats_.dropped;
+    } else {
+      try {
+        process(vis, infrared->frame());
+        ++stats_.processed;
+        health_.frame_processed();
+      } catch (const std::exception& e) {
         ++stats_.bad;
-        health_.bad_input("visible frame " + std::to_string(vis.seq()) + " captured before frame " +
-                          std::to_string(last_seq) + ": out of order, dropped");
-        continue;
-      case node::FrameOrder::Verdict::restarted:
-        // The bridge restarted and counts from the start again: follow it.
-        std::cerr << "thermovis-rectify-fuse: raw frames start again at " << vis.seq() << " after "
-                  << last_seq << " with a later capture time (their writer restarted)" << std::endl;
-        break;
-      case node::FrameOrder::Verdict::next:
-        break;
-    }
-    // Its infrared partner (same seq) is published with it: look for it briefly.
-    bool done = false;
-    for (int attempt = 0; attempt < 10 && !done && !node::stop_requested(); ++attempt) {
-      auto infrared = infrared_in_.take();
-      for (std::size_t i = 0; i < infrared.size() && !done; ++i) {
-        if (infrared[i].seq() != vis.seq()) continue;
-        try {
-          process(vis, infrared[i]);
-          ++stats_.processed;
-          health_.frame_processed();
-        } catch (const std::exception& e) {
-          ++stats_.bad;
-          health_.bad_input(e.what());
-        }
-        done = true;
+        health_.bad_input(e.what());
       }
-      if (!infrared.empty() && infrared[infrared.size() - 1].seq() > vis.seq()) break;  // gone
-      if (!done) infrared_in_.wait_for_data(milliseconds(2));
     }
-    if (!done) ++stats_.dropped;
+    infrared_held_.drop_through(vis.seq());  // the loans go back to the bridge's pool
   }
   health_.set_state(HEALTH_STOPPING, "processed " + std::to_string(stats_.processed));
 }
@@ -140,6 +127,14 @@ void RectifyFuseNode::run() {
 void RectifyFuseNode::process(const VisibleStereoFrame& visible,
                               const InfraredStereoFrame& infrared) {
   const std::int64_t start_ns = transport::now_ns();
+  const cv::Size grid = grid_size();
+  auto copy_header = [&](GridStereoFrame& to, std::int64_t since_ns) {
+    to.seq(visible.seq());
+    to.capture_time_ns(visible.capture_time_ns());
+    to.stamps(visible.stamps());
+    to.geometry_id(geometry_id_);
+    transport::append_stamp(to.stamps(), STAGE_RECTIFY_FUSE, since_ns, transport::now_ns());
+  };
   auto out_visible = rectified_visible_out_.loan();
   auto out_infrared = rectified_infrared_out_.loan();
   auto out_fused = fused_out_.loan();
@@ -150,31 +145,29 @@ void RectifyFuseNode::process(const VisibleStereoFrame& visible,
   std::array<cv::Mat, 2> rect_visible, rect_infrared;
   const auto rectify_visible = [&] {
     for (const Eye eye : {Eye::left, Eye::right}) {
-      const int i = eye == Eye::left ? 0 : 1;
-      // view() checks the headers; the remappers check the sizes against the rig's cameras.
-      rect_visible[i] = node::prepare(*out_visible, eye, grid_size_, CV_8UC3);
-      visible_maps_[i]->remap(node::view(visible, eye), rect_visible[i]);
+      // view() checks the headers; the stage checks the sizes against the rig's cameras.
+      cv::Mat& out = rect_visible[eye == Eye::left ? 0 : 1];
+      out = node::prepare(*out_visible, eye, grid, CV_8UC3);
+      stage_.rectify_visible(eye, node::view(visible, eye), out);
     }
     out_visible->eyes(EYES_BOTH);
   };
   std::future<void> visible_done;
   if (config_.parallel_bands) visible_done = std::async(std::launch::async, rectify_visible);
   for (const Eye eye : {Eye::left, Eye::right}) {
-    const int i = eye == Eye::left ? 0 : 1;
-    // The rectified infrared keeps its raw counts (detection thresholds on temperature, not on
-    // equalised grey levels); the gain-controlled image goes into the fusion.
-    rect_infrared[i] = node::prepare(*out_infrared, eye, grid_size_, CV_16UC1);
-    infrared_maps_[i]->remap(node::view(infrared, eye), rect_infrared[i]);
+    cv::Mat& out = rect_infrared[eye == Eye::left ? 0 : 1];
+    out = node::prepare(*out_infrared, eye, grid, CV_16UC1);
+    stage_.rectify_infrared(eye, node::view(infrared, eye), out);
   }
   out_infrared->eyes(EYES_BOTH);
-  copy_header(visible, *out_infrared, start_ns);
+  copy_header(*out_infrared, start_ns);
   rectified_infrared_out_.publish(std::move(out_infrared));
   if (visible_done.valid()) {
     visible_done.get();  // rethrows a bad visible frame's error
   } else {
     rectify_visible();
   }
-  copy_header(visible, *out_visible, start_ns);
+  copy_header(*out_visible, start_ns);
   rectified_visible_out_.publish(std::move(out_visible));
   // Reading the published samples stays safe: this writer reuses a pool slot only at its next
   // loan, which comes with the next capture.
@@ -182,13 +175,13 @@ void RectifyFuseNode::process(const VisibleStereoFrame& visible,
   const int fused_eyes = config_.fuse_right_eye ? 2 : 1;
   for (int i = 0; i < fused_eyes; ++i) {
     const Eye eye = i == 0 ? Eye::left : Eye::right;
-    const cv::Mat infrared_agc = agc_[i].process(rect_infrared[i]);
-    cv::Mat fused = node::prepare(*out_fused, eye, grid_size_, CV_8UC3);
     // The fusion writes into the loaned sample (the buffer has the output's size and type).
-    fuse::fuse(infrared_agc, rect_visible[i], fused, config_.fusion);
+    cv::Mat fused = node::prepare(*out_fused, eye, grid, CV_8UC3);
+    stage_.fuse(eye, rect_infrared[static_cast<std::size_t>(i)],
+                rect_visible[static_cast<std::size_t>(i)], fused);
   }
   out_fused->eyes(config_.fuse_right_eye ? EYES_BOTH : EYES_LEFT);
-  copy_header(visible, *out_fused, fusion_start_ns);
+  copy_header(*out_fused, fusion_start_ns);
   fused_out_.publish(std::move(out_fused));
 }
 

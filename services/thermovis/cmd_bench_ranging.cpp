@@ -16,7 +16,8 @@
 #include <stdexcept>
 
 #include "command.hpp"
-#include "thermovis/range/stereo_ranger.hpp"
+#include "thermovis/pipeline/capture_pipeline.hpp"
+#include "thermovis/runtime/grid_options.hpp"
 #include "thermovis/runtime/rig_io.hpp"
 #include "thermovis/runtime/scene_io.hpp"
 #include "thermovis/sim/simulated_rig.hpp"
@@ -24,6 +25,7 @@
 namespace {
 
 namespace rg = thermovis::range;
+namespace pl = thermovis::pipeline;
 namespace sim = thermovis::sim;
 
 struct Options {
@@ -35,7 +37,27 @@ struct Options {
   std::uint64_t seed = 1;
   bool json = false;
   bool points = false;
+  pl::GridOptions grid;
 };
+
+// The ranging modes of Table 6 and the pipeline's band choice for each (fused: both pairs
+// matched and their ranges combined, the pipeline's default).
+enum class Mode { visible, infrared, fused };
+std::string mode_name(Mode mode) {
+  return mode == Mode::visible ? "visible" : mode == Mode::infrared ? "infrared" : "fused";
+}
+Mode parse_mode(const std::string& name) {
+  if (name == "visible") return Mode::visible;
+  if (name == "infrared") return Mode::infrared;
+  if (name == "fused") return Mode::fused;
+  throw std::invalid_argument("unknown ranging mode '" + name +
+                              "' (expected visible, infrared or fused)");
+}
+pl::BandChoice band_choice(Mode mode) {
+  return mode == Mode::visible    ? pl::BandChoice::visible
+         : mode == Mode::infrared ? pl::BandChoice::infrared
+                                  : pl::BandChoice::both;
+}
 
 // Table 6 of the paper: absolute difference (m) per distance for visible, infrared, fused.
 struct PaperRow {
@@ -46,15 +68,15 @@ const std::map<int, PaperRow> kTable6 = {{5, {0.18, 0.05, 0.01}},  {10, {0.15, 0
                                          {25, {0.86, 0.47, 0.14}}, {30, {1.62, 0.47, 0.37}},
                                          {40, {2.01, 0.54, 0.22}}, {60, {3.24, 2.55, 0.35}}};
 
-std::optional<double> paper_error(double distance, rg::Mode mode) {
+std::optional<double> paper_error(double distance, Mode mode) {
   const auto it = kTable6.find(static_cast<int>(std::lround(distance)));
   if (it == kTable6.end() || std::abs(distance - it->first) > 1e-9) return std::nullopt;
   switch (mode) {
-    case rg::Mode::visible:
+    case Mode::visible:
       return it->second.visible;
-    case rg::Mode::infrared:
+    case Mode::infrared:
       return it->second.infrared;
-    case rg::Mode::fused:
+    case Mode::fused:
       return it->second.fused;
   }
   return std::nullopt;
@@ -93,8 +115,9 @@ struct Cell {
 // pixel's ray meets the target, the true disparity there, and the range the same points would
 // give with their true disparities.
 void evaluate_points(const sim::SimulatedRig& simulated, const sim::TargetTruth& truth,
-                     const rg::RangingGeometry& g, const rg::RangedTarget& r,
-                     const rg::RangerOptions& options, Cell& cell) {
+                     const rg::RangingGeometry& g, const cv::Rect& box, const pl::CaptureTarget& r,
+                     const rg::RangeOptions& options, Cell& cell) {
+  if (r.matches.size() != 1) return;  // fused: two pairs' points, each traced in its own mode
   const Eigen::Isometry3d& T = g.T_ref_left_rect;
   const Eigen::Isometry3d& T_ref_vl =
       simulated.rig().camera(simulated.rig().visible.left).T_ref_cam;
@@ -103,8 +126,8 @@ void evaluate_points(const sim::SimulatedRig& simulated, const sim::TargetTruth&
   const Eigen::Vector3d centre_rect = T.inverse() * (T_ref_vl * truth.position_m);
   if (!rg::project_point(g.grid, g.baseline_m, centre_rect, centre_px, centre_disparity)) return;
   // The same matches with the true disparity wherever the pixel's ray meets the target.
-  std::vector<thermovis::match::Correspondence> corrected = r.matching.matches;
-  for (int k : r.range.used) {
+  std::vector<thermovis::match::Correspondence> corrected = r.matches.front().result.matches;
+  for (int k : r.ranged.range.used) {
     auto& c = corrected[static_cast<size_t>(k)];
     Eigen::Vector3d ray;
     if (!g.grid.unproject(c.left, ray)) continue;
@@ -125,8 +148,7 @@ void evaluate_points(const sim::SimulatedRig& simulated, const sim::TargetTruth&
     cell.centre_offset_sum += centre_rect.norm() - hit.distance_m;
     c.disparity_px = d_true;
   }
-  rg::TargetRange t = rg::range_target(g, r.box, corrected, options.range);
-  if (options.range.shape.empty()) rg::move_to_centre(t, g, options.centre_offset_m);
+  rg::TargetRange t = rg::range_target(g, box, corrected, options);
   if (t.status == rg::RangeStatus::ok) {
     cell.true_disparity_errors.push_back((T_ref_vl.inverse() * t.position_m).norm() -
                                          truth.distance_m);
@@ -136,24 +158,28 @@ void evaluate_points(const sim::SimulatedRig& simulated, const sim::TargetTruth&
 int run_bench_ranging(const Options& opt) {
   if (opt.trials < 1) throw std::invalid_argument("--trials must be >= 1");
   const std::vector<double> distances = parse_distances(opt.distances);
-  std::vector<rg::Mode> modes;
+  std::vector<Mode> modes;
   if (opt.mode == "all") {
-    modes = {rg::Mode::visible, rg::Mode::infrared, rg::Mode::fused};
+    modes = {Mode::visible, Mode::infrared, Mode::fused};
   } else {
-    modes = {rg::parse_mode(opt.mode)};
+    modes = {parse_mode(opt.mode)};
   }
   const auto rig = thermovis::runtime::load_rig_or_default(opt.rig);
   const sim::Scene base =
       thermovis::runtime::load_scene(thermovis::runtime::shipped_scene_path("paper"));
-  const rg::StereoRanger ranger(rig);
-  rg::RangerOptions options;
-  options.match.method = thermovis::match::parse_method(opt.method);
+  pl::CapturePipelineOptions options;
+  options.grid = opt.grid;
+  options.match.match.method = thermovis::match::parse_method(opt.method);
+  pl::CapturePipeline pipeline(rig, options);
+  // The range stage's options for a person (what --points re-ranges with).
+  rg::RangeOptions person;
+  person.shape = rg::TargetShape::for_class("person");
+  person.contour_reach_px = options.match.match.patch_radius;
 
-  const Eigen::Isometry3d T_visible_left_ref = rig.camera(rig.visible.left).T_ref_cam.inverse();
   std::mt19937_64 rng(opt.seed);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   const std::vector<std::string> clothing = {"clothing", "clothing_red", "clothing_blue"};
-  std::map<std::pair<double, rg::Mode>, Cell> cells;
+  std::map<std::pair<double, Mode>, Cell> cells;
   const auto t_start = std::chrono::steady_clock::now();
   for (int trial = 0; trial < opt.trials; ++trial) {
     sim::Scene scene = base;
@@ -185,38 +211,42 @@ int run_bench_ranging(const Options& opt) {
     const sim::SimulatedRig simulated(rig, scene, rng());
     sim::FrameSet frames = simulated.allocate();
     simulated.render(0, frames);
-    rg::RawFrames raw{frames[sim::Slot::visible_left], frames[sim::Slot::visible_right],
-                      frames[sim::Slot::infrared_left], frames[sim::Slot::infrared_right]};
-    const rg::RectifiedFrames rectified = ranger.rectify(raw);
+    const pl::GridCapture capture =
+        pipeline.rectify({frames[sim::Slot::visible_left], frames[sim::Slot::visible_right],
+                          frames[sim::Slot::infrared_left], frames[sim::Slot::infrared_right]});
     for (const sim::TargetTruth& truth : simulated.truth(0)) {
       const auto it = std::find_if(scene.targets.begin(), scene.targets.end(),
                                    [&](const sim::Target& t) { return t.id == truth.id; });
       const double nominal = it->distance_m;
-      options.centre_offset_m = rg::surface_to_centre_m("person");
-      options.range.shape = rg::TargetShape::for_class("person");
-      for (rg::Mode mode : modes) {
+      for (Mode mode : modes) {
         Cell& cell = cells[{nominal, mode}];
+        // The box as the pipeline has it: on the visible image for the visible pair, on the
+        // infrared one (where the detector finds people) for the infrared pair and for both.
+        const bool infrared_box = mode != Mode::visible;
         const auto& raw_box = truth.boxes[static_cast<size_t>(
-            mode == rg::Mode::infrared ? sim::Slot::infrared_left : sim::Slot::visible_left)];
+            infrared_box ? sim::Slot::infrared_left : sim::Slot::visible_left)];
         if (!raw_box) {
           ++cell.failures;
           continue;
         }
-        const cv::Rect box = ranger.raw_box_to_rectified(mode, raw_box->x_min, raw_box->y_min,
-                                                         raw_box->x_max, raw_box->y_max);
-        const rg::RangedTarget r = ranger.range(rectified, mode, box, options);
-        if (r.range.status != rg::RangeStatus::ok) {
+        const cv::Rect box = pl::raw_box_on_grid(
+            pipeline.geometry(), rig, infrared_box ? pl::Band::infrared : pl::Band::visible,
+            raw_box->x_min, raw_box->y_min, raw_box->x_max, raw_box->y_max);
+        const pl::CaptureTarget r = pipeline.range(capture, box, "person", band_choice(mode));
+        if (!r.ranged.ok()) {
           ++cell.failures;
           continue;
         }
-        // From the left visible camera's centre, as the truth (infrared ranges are from the
-        // left infrared camera's).
-        const double error = (T_visible_left_ref * r.range.position_m).norm() - truth.distance_m;
+        // From the left visible camera's centre, as the truth.
+        const double error = r.ranged.distance_m - truth.distance_m;
         cell.errors.push_back(error);
-        cell.within_sigma += std::abs(error) <= r.range.sigma_m;
-        cell.sigma_sum += r.range.sigma_m;
+        cell.within_sigma += std::abs(error) <= r.ranged.range.sigma_m;
+        cell.sigma_sum += r.ranged.range.sigma_m;
         if (opt.points) {
-          evaluate_points(simulated, truth, ranger.geometry(mode), r, options, cell);
+          evaluate_points(simulated, truth,
+                          pipeline.geometry().ranging(mode == Mode::infrared ? pl::Band::infrared
+                                                                             : pl::Band::visible),
+                          box, r, person, cell);
         }
       }
     }
@@ -228,13 +258,14 @@ int run_bench_ranging(const Options& opt) {
   }
 
   // Physics: Eq. 2 for 0.1 px of disparity error at the grid's centre resolution.
-  auto eq2 = [&](rg::Mode mode, double L) {
-    const auto& g = ranger.geometry(mode);
+  auto eq2 = [&](Mode mode, double L) {
+    const auto g = pipeline.geometry().ranging(mode == Mode::infrared ? pl::Band::infrared
+                                                                      : pl::Band::visible);
     return L * L / (g.grid.intrinsics().f * g.baseline_m) * 0.1;
   };
   std::vector<nlohmann::json> rows;
   for (double distance : distances) {
-    for (rg::Mode mode : modes) {
+    for (Mode mode : modes) {
       const Cell& c = cells[{distance, mode}];
       const int n = static_cast<int>(c.errors.size());
       double mean_abs = 0, max_abs = 0, mean_signed = 0;
@@ -245,7 +276,7 @@ int run_bench_ranging(const Options& opt) {
       }
       nlohmann::json row{
           {"distance_m", distance},
-          {"mode", rg::mode_name(mode)},
+          {"mode", mode_name(mode)},
           {"trials", opt.trials},
           {"ranged", n},
           {"failures", c.failures},
@@ -358,6 +389,7 @@ THERMOVIS_COMMAND(
                    "also trace every kept point in the simulated scene (evaluation only): "
                    "on-target fraction, disparity error against the true geometry (visible "
                    "and infrared; fused combines those two pairs' ranges)");
+      thermovis::runtime::add_grid_options(app, opt->grid);
       return [opt] { return run_bench_ranging(*opt); };
     });
 

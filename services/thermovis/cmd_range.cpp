@@ -15,14 +15,15 @@
 #include <stdexcept>
 
 #include "command.hpp"
-#include "thermovis/detect/detectors.hpp"
-#include "thermovis/range/stereo_ranger.hpp"
+#include "thermovis/pipeline/capture_pipeline.hpp"
+#include "thermovis/runtime/grid_options.hpp"
 #include "thermovis/runtime/rig_io.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
 namespace rg = thermovis::range;
+namespace pl = thermovis::pipeline;
 
 struct Options {
   std::string rig;
@@ -37,6 +38,7 @@ struct Options {
   bool detect = false;
   double camera_height_m = 1.4;
   bool json = false;
+  pl::GridOptions grid;
 };
 
 cv::Mat read_image(const fs::path& path, int flags) {
@@ -108,10 +110,18 @@ std::vector<BoxRequest> read_boxes(const fs::path& path) {
   return out;
 }
 
+pl::BandChoice band_of_mode(const std::string& mode) {
+  if (mode == "visible") return pl::BandChoice::visible;
+  if (mode == "infrared") return pl::BandChoice::infrared;
+  if (mode == "fused") return pl::BandChoice::both;
+  throw std::invalid_argument("unknown ranging mode '" + mode +
+                              "' (expected visible, infrared or fused)");
+}
+
 int run_range(const Options& opt) {
   const fs::path dir(opt.images);
   if (!fs::is_directory(dir)) throw std::runtime_error("--images: no folder " + opt.images);
-  const rg::Mode mode = rg::parse_mode(opt.mode);
+  const pl::BandChoice band = band_of_mode(opt.mode);
   if (opt.detect && !opt.boxes.empty())
     throw std::invalid_argument("give --boxes or --detect, not both");
   std::vector<BoxRequest> requests;
@@ -124,117 +134,116 @@ int run_range(const Options& opt) {
     requests = read_boxes(boxes_path);
   }
   const auto rig = thermovis::runtime::load_rig_or_default(opt.rig);
-  rg::RawFrames raw;
+  pl::RawCapture raw;
   raw.visible_left = read_image(dir / "visible_left.png", cv::IMREAD_COLOR);
   raw.visible_right = read_image(dir / "visible_right.png", cv::IMREAD_COLOR);
   raw.infrared_left = read_image(dir / "infrared_left.png", cv::IMREAD_UNCHANGED);
   raw.infrared_right = read_image(dir / "infrared_right.png", cv::IMREAD_UNCHANGED);
-  const rg::StereoRanger ranger(rig);
-  const rg::RectifiedFrames frames = ranger.rectify(raw);
+  pl::CapturePipelineOptions options;
+  options.grid = opt.grid;
+  options.rectify.agc.temporal_alpha = 1.0;  // one frame set on its own
+  options.detect.blobs.camera_height_m = opt.camera_height_m;
+  options.match.match.method = thermovis::match::parse_method(opt.method);
+  options.match.min_distance_m = opt.min_distance_m;
+  if (opt.fast_threshold > 0) options.match.match.fast_threshold = opt.fast_threshold;
+  if (opt.patch_radius > 0) options.match.match.patch_radius = opt.patch_radius;
+  options.range.surface = opt.surface;
+  pl::CapturePipeline pipeline(rig, options);
+  const pl::GridCapture capture = pipeline.rectify(raw);
   if (opt.detect) {
-    // Warm blobs on the infrared grid's raw counts (the infrared camera 60 mm below the visible
-    // one in the paper rig: its height is given by --camera-height), boxes carried to the
-    // visible grid for the visible and fused modes.
-    if (frames.infrared_counts_left.empty()) {
-      throw std::runtime_error("--detect needs 16-bit infrared counts (infrared_left.png)");
-    }
-    thermovis::detect::WarmBlobOptions wo;
-    wo.camera_height_m = opt.camera_height_m;
-    const auto found = thermovis::detect::detect_warm_blobs(
-        frames.infrared_counts_left, ranger.geometry(rg::Mode::infrared).grid, wo);
+    // The detect service's stage: warm blobs on the rectified infrared counts (the infrared
+    // camera 60 mm below the visible one in the paper rig: its height is --camera-height). Every
+    // band is on the one grid, so the boxes serve every mode.
+    const auto found = pipeline.detect(capture);
     for (size_t i = 0; i < found.size(); ++i) {
       BoxRequest b;
       b.id = "detection" + std::to_string(i);
       b.cls = found[i].cls;
-      b.rectified =
-          mode == rg::Mode::infrared ? found[i].box : ranger.infrared_box_to_visible(found[i].box);
+      b.rectified = found[i].box;
       requests.push_back(b);
     }
   }
-  rg::RangerOptions options;
-  options.match.method = thermovis::match::parse_method(opt.method);
-  options.min_distance_m = opt.min_distance_m;
-  if (opt.fast_threshold > 0) options.match.fast_threshold = opt.fast_threshold;
-  if (opt.patch_radius > 0) options.match.patch_radius = opt.patch_radius;
   for (const BoxRequest& request : requests) {
     cv::Rect box;
     if (request.rectified) {
       box = *request.rectified;
     } else {
-      const auto& raw_box = mode == rg::Mode::infrared ? request.raw_infrared : request.raw_visible;
-      if (raw_box)
-        box = ranger.raw_box_to_rectified(mode, (*raw_box)[0], (*raw_box)[1], (*raw_box)[2],
-                                          (*raw_box)[3]);
+      const bool infrared = band == pl::BandChoice::infrared && request.raw_infrared;
+      const auto& raw_box = infrared ? request.raw_infrared : request.raw_visible;
+      if (raw_box) {
+        box = pl::raw_box_on_grid(pipeline.geometry(), rig,
+                                  infrared ? pl::Band::infrared : pl::Band::visible, (*raw_box)[0],
+                                  (*raw_box)[1], (*raw_box)[2], (*raw_box)[3]);
+      }
     }
-    options.centre_offset_m = opt.surface ? 0.0 : rg::surface_to_centre_m(request.cls);
-    options.range.shape = opt.surface ? rg::TargetShape{} : rg::TargetShape::for_class(request.cls);
-    const rg::RangedTarget t = ranger.range(frames, mode, box, options);
-    const rg::TargetRange& r = t.range;
+    const pl::CaptureTarget t = pipeline.range(capture, box, request.cls, band, true);
+    const rg::TargetRange& r = t.ranged.range;
     auto number = [](double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); };
-    nlohmann::json out{
-        {"id", request.id},
-        {"class", request.cls},
-        {"mode", rg::mode_name(mode)},
-        {"status", rg::status_name(r.status)},
-        {"message", r.message},
-        {"box", {box.x, box.y, box.x + box.width - 1, box.y + box.height - 1}},
-        {"distance_m", number(r.distance_m)},
-        {"depth_m", number(r.depth_m)},
-        {"sigma_m", number(r.sigma_m)},
-        {"position_m",
-         {number(r.position_m.x()), number(r.position_m.y()), number(r.position_m.z())}},
-        {"frame_of_position", rig.reference},
-        {"disparity_px", number(r.disparity_px)},
-        {"points_used", r.points_used},
-        {"points_valid", r.points_valid},
-        {"matches", r.points_total},
-        {"keypoints", t.matching.keypoints_left}};
-    if (mode == rg::Mode::fused) {
+    const int keypoints = t.matches.empty() ? 0 : t.matches.front().result.keypoints_left;
+    nlohmann::json out{{"id", request.id},
+                       {"class", request.cls},
+                       {"mode", opt.mode},
+                       {"band", pl::band_name(t.ranged.band)},
+                       {"status", rg::status_name(r.status)},
+                       {"message", r.message},
+                       {"box", {box.x, box.y, box.x + box.width - 1, box.y + box.height - 1}},
+                       {"distance_m", number(t.ranged.distance_m)},
+                       {"depth_m", number(r.depth_m)},
+                       {"sigma_m", number(r.sigma_m)},
+                       {"position_m",
+                        {number(t.ranged.position_m.x()), number(t.ranged.position_m.y()),
+                         number(t.ranged.position_m.z())}},
+                       {"frame_of_position", rig.visible.left},
+                       {"disparity_px", number(r.disparity_px)},
+                       {"points_used", r.points_used},
+                       {"points_valid", r.points_valid},
+                       {"matches", r.points_total},
+                       {"keypoints", keypoints}};
+    if (t.each_band.size() > 1) {
       // Each pair's own range, as combined into the target's.
-      auto band = [&](const rg::TargetRange& b, const cv::Rect& band_box) {
-        return nlohmann::json{
-            {"status", rg::status_name(b.status)},
-            {"message", b.message},
-            {"box", {band_box.x, band_box.y, band_box.br().x - 1, band_box.br().y - 1}},
-            {"distance_m", number(b.distance_m)},
-            {"sigma_m", number(b.sigma_m)},
-            {"points_used", b.points_used}};
-      };
-      out["bands"] = {{"visible", band(t.visible, box)},
-                      {"infrared", band(t.infrared, t.infrared_box)}};
+      nlohmann::json bands;
+      for (std::size_t i = 0; i < t.each_band.size(); ++i) {
+        const pl::RangedTarget& b = t.each_band[i];
+        bands[pl::band_name(t.matches[i].band)] = {{"status", rg::status_name(b.range.status)},
+                                                   {"message", b.range.message},
+                                                   {"box", out["box"]},
+                                                   {"distance_m", number(b.distance_m)},
+                                                   {"sigma_m", number(b.range.sigma_m)},
+                                                   {"points_used", b.range.points_used}};
+      }
+      out["bands"] = bands;
     }
     if (request.truth_distance_m) {
       out["truth_distance_m"] = *request.truth_distance_m;
-      out["error_m"] = number(r.distance_m - *request.truth_distance_m);
+      out["error_m"] = number(t.ranged.distance_m - *request.truth_distance_m);
     }
     if (opt.json) {
       std::cout << out.dump() << "\n";
-    } else {
-      std::cout << std::left << std::setw(14) << request.id << std::right << " " << std::setw(9)
-                << rg::mode_name(mode) << "  ";
-      if (r.status == rg::RangeStatus::ok) {
-        std::cout << std::fixed << std::setprecision(3) << r.distance_m << " m +- " << r.sigma_m
-                  << " (" << r.points_used << "/" << r.points_valid << " points)";
-        if (mode == rg::Mode::fused) {
-          auto band = [](const char* name, const rg::TargetRange& b) {
-            std::ostringstream text;
-            text << std::fixed << std::setprecision(3) << name << " ";
-            if (b.status == rg::RangeStatus::ok) {
-              text << b.distance_m << " +- " << b.sigma_m;
-            } else {
-              text << rg::status_name(b.status);
-            }
-            return text.str();
-          };
-          std::cout << " [" << band("visible", t.visible) << ", " << band("infrared", t.infrared)
-                    << "]";
-        }
-        if (request.truth_distance_m) std::cout << "  truth " << *request.truth_distance_m << " m";
-      } else {
-        std::cout << rg::status_name(r.status) << ": " << r.message;
-      }
-      std::cout << "\n";
+      continue;
     }
+    std::cout << std::left << std::setw(14) << request.id << std::right << " " << std::setw(9)
+              << opt.mode << "  ";
+    if (t.ranged.ok()) {
+      std::cout << std::fixed << std::setprecision(3) << t.ranged.distance_m << " m +- "
+                << r.sigma_m << " (" << r.points_used << "/" << r.points_valid << " points)";
+      if (t.each_band.size() > 1) {
+        std::cout << " [";
+        for (std::size_t i = 0; i < t.each_band.size(); ++i) {
+          const pl::RangedTarget& b = t.each_band[i];
+          std::cout << (i ? ", " : "") << pl::band_name(t.matches[i].band) << " ";
+          if (b.ok()) {
+            std::cout << b.distance_m << " +- " << b.range.sigma_m;
+          } else {
+            std::cout << rg::status_name(b.range.status);
+          }
+        }
+        std::cout << "]";
+      }
+      if (request.truth_distance_m) std::cout << "  truth " << *request.truth_distance_m << " m";
+    } else {
+      std::cout << rg::status_name(r.status) << ": " << r.message;
+    }
+    std::cout << "\n";
   }
   return 0;
 }
@@ -268,6 +277,7 @@ THERMOVIS_COMMAND(
                      "infrared camera height above the ground, m (--detect's size check)")
           ->capture_default_str();
       app.add_flag("--json", opt->json, "one JSON object per target");
+      thermovis::runtime::add_grid_options(app, opt->grid);
       return [opt] { return run_range(*opt); };
     });
 

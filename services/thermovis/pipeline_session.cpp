@@ -1,5 +1,7 @@
 #include "pipeline_session.hpp"
 
+#include "truth_match.hpp"
+
 #include <unistd.h>
 
 #include <csignal>
@@ -113,21 +115,8 @@ std::optional<sim::TargetTruth> PipelineSession::truth_for(std::uint64_t seq,
   const std::int64_t frame = options_.prerender > 0
                                  ? static_cast<std::int64_t>(seq % options_.prerender)
                                  : static_cast<std::int64_t>(seq);
-  const Eigen::Vector3d direction =
-      Eigen::Vector3d(range.x_m(), range.y_m(), range.z_m()).normalized();
-  std::optional<sim::TargetTruth> best;
-  double best_offset_m = 0.0;
-  for (const sim::TargetTruth& t : sim_->truth(frame)) {
-    // How far the target's centre is from the line of sight the range was measured along.
-    const double along = t.position_m.dot(direction);
-    const double offset_m = (t.position_m - along * direction).norm();
-    if (along > 0 && offset_m < kTruthMatchOffsetM + kTruthMatchOffsetPerM * t.distance_m &&
-        (!best || offset_m < best_offset_m)) {
-      best = t;
-      best_offset_m = offset_m;
-    }
-  }
-  return best;
+  return truth_on_line_of_sight(sim_->truth(frame),
+                                Eigen::Vector3d(range.x_m(), range.y_m(), range.z_m()));
 }
 
 void PipelineSession::kill_service(const std::string& name) {

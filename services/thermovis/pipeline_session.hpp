@@ -32,9 +32,8 @@ struct SessionOptions {
 // --latency-deadline-ms and --prerender.
 void add_session_options(CLI::App& app, SessionOptions& options);
 
-// One range of the pipeline with the simulated target it belongs to, if any: the target whose
-// centre is nearest to the range's line of sight, within kTruthMatchOffsetM +
-// kTruthMatchOffsetPerM * distance (a detector's box need not be centred on the target).
+// One range of the pipeline with the simulated target it belongs to, if any
+// (truth_on_line_of_sight, truth_match.hpp).
 struct CheckedRange {
   std::uint64_t seq = 0;
   TargetRange range;
@@ -75,9 +74,6 @@ struct ServiceOutage {
 
 class PipelineSession {
  public:
-  static constexpr double kTruthMatchOffsetM = 0.8;
-  static constexpr double kTruthMatchOffsetPerM = 0.02;
-
   explicit PipelineSession(const SessionOptions& options);
   ~PipelineSession();
 

@@ -165,9 +165,44 @@ cv::Mat view(const GridStereoFrame& f, Eye eye, cv::Size grid) {
         "grid frame " + std::to_string(f.seq()) + ": " + size_text(f.width(), f.height()) +
         " image, this service's grid is " +
         size_text(static_cast<std::uint32_t>(grid.width), static_cast<std::uint32_t>(grid.height)) +
-        " (give every service the same --grid-scale and --projection)");
+        " (the geometry on thermovis/geometry)");
   }
   return image;
+}
+
+Band to_message(pipeline::Band band) {
+  switch (band) {
+    case pipeline::Band::visible:
+      return BAND_VISIBLE;
+    case pipeline::Band::infrared:
+      return BAND_INFRARED;
+    case pipeline::Band::fused:
+      return BAND_FUSED;
+  }
+  return BAND_UNKNOWN;
+}
+
+pipeline::Band band_of(Band band) {
+  switch (band) {
+    case BAND_UNKNOWN:
+    case BAND_VISIBLE:
+      return pipeline::Band::visible;
+    case BAND_INFRARED:
+      return pipeline::Band::infrared;
+    case BAND_FUSED:
+      return pipeline::Band::fused;
+    default:
+      throw FrameError("unknown band " + std::to_string(band));
+  }
+}
+
+cv::Mat view(const GridStereoFrame& f, Eye eye, cv::Size grid, std::uint32_t geometry_id) {
+  if (f.geometry_id() != 0 && f.geometry_id() != geometry_id) {
+    throw FrameError("grid frame " + std::to_string(f.seq()) + " was made on geometry " +
+                     std::to_string(f.geometry_id()) + ", this service holds geometry " +
+                     std::to_string(geometry_id) + " (thermovis/geometry)");
+  }
+  return view(f, eye, grid);
 }
 
 void check_stamps(const PipelineStamps& stamps, std::int64_t capture_ns, const std::string& what) {

@@ -29,7 +29,7 @@ void install_stop_handlers() {
 bool stop_requested() { return g_stop.load(); }
 void request_stop() { g_stop.store(true); }
 
-void add_common_options(CLI::App& app, CommonOptions& options) {
+void add_common_options(CLI::App& app, CommonOptions& options, bool with_rig) {
   if (const char* env = std::getenv("THERMOVIS_DOMAIN"); env != nullptr && *env != '\0') {
     options.domain = std::atoi(env);
   }
@@ -41,7 +41,7 @@ void add_common_options(CLI::App& app, CommonOptions& options) {
                  "hosts), thermovis_discovery (discovery server, needs ROS_DISCOVERY_SERVER), "
                  "thermovis_secure (DDS Security)");
   app.add_option("--profiles-file", options.profiles_file, "DDS XML profiles file");
-  app.add_option("--rig", options.rig, "rig YAML (default deploy/rigs/paper.yaml)");
+  if (with_rig) app.add_option("--rig", options.rig, "rig YAML (default deploy/rigs/paper.yaml)");
   app.add_option("--threads", options.threads,
                  "OpenCV worker threads (1: sequential, the default; -1: one per core)")
       ->capture_default_str()

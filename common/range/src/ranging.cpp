@@ -451,6 +451,13 @@ TargetRange range_target(const RangingGeometry& geometry, const cv::Rect& box,
   return r;
 }
 
+double surface_to_centre_m(const std::string& target_class) {
+  if (target_class == "person") return 0.15 * M_PI / 4;
+  if (target_class == "pole") return 0.10 * M_PI / 4;
+  if (target_class == "marker") return 0.05 * 2.0 / 3.0;
+  return 0.0;
+}
+
 double max_disparity_for(const RangingGeometry& geometry, double min_distance_m) {
   return geometry.grid.intrinsics().f * geometry.baseline_m / std::max(0.1, min_distance_m) + 2.0;
 }

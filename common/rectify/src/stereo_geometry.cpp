@@ -143,4 +143,31 @@ cv::Mat build_map(const camera::RigCamera& cam, const Eigen::Isometry3d& T_ref_r
   return map;
 }
 
+cv::Rect raw_box_on_grid(const camera::RigCamera& cam, const Eigen::Isometry3d& T_ref_rect,
+                         const camera::RectifiedCamera& grid, double x_min, double y_min,
+                         double x_max, double y_max) {
+  const Eigen::Matrix3d R_rect_cam = T_ref_rect.rotation().transpose() * cam.T_ref_cam.rotation();
+  double lo_x = 1e30, lo_y = 1e30, hi_x = -1e30, hi_y = -1e30;
+  const int steps = 16;
+  for (int i = 0; i <= steps; ++i) {
+    const double t = static_cast<double>(i) / steps;
+    for (const Eigen::Vector2d& p : {Eigen::Vector2d(x_min + t * (x_max - x_min), y_min),
+                                     Eigen::Vector2d(x_min + t * (x_max - x_min), y_max),
+                                     Eigen::Vector2d(x_min, y_min + t * (y_max - y_min)),
+                                     Eigen::Vector2d(x_max, y_min + t * (y_max - y_min))}) {
+      Eigen::Vector3d ray;
+      Eigen::Vector2d q;
+      if (!cam.model->unproject(p, ray) || !grid.project(R_rect_cam * ray, q)) continue;
+      lo_x = std::min(lo_x, q.x());
+      lo_y = std::min(lo_y, q.y());
+      hi_x = std::max(hi_x, q.x());
+      hi_y = std::max(hi_y, q.y());
+    }
+  }
+  if (lo_x > hi_x) return {};
+  const int x0 = static_cast<int>(std::floor(lo_x)), y0 = static_cast<int>(std::floor(lo_y));
+  return {x0, y0, static_cast<int>(std::ceil(hi_x)) - x0 + 1,
+          static_cast<int>(std::ceil(hi_y)) - y0 + 1};
+}
+
 }  // namespace thermovis::rectify

@@ -20,7 +20,7 @@
 #include "supervisor.hpp"
 #include "textured_pair.hpp"
 #include "thermovis/node/frame_codec.hpp"
-#include "thermovis/node/pipeline_grid.hpp"
+#include "thermovis/node/geometry_topic.hpp"
 #include "thermovis/range/ranging.hpp"
 #include "thermovis/runtime/rig_io.hpp"
 #include "thermovis/test/child_process.hpp"
@@ -54,6 +54,8 @@ class Service {
         dir_(tv::test::temp_dir("corrupt")),
         name_(executable) {
     participant_ = tv::test::loopback_participant(domain_, "corrupt-test");
+    // The geometry rectify-fuse would publish: the services started alone wait for it.
+    geometry_ = std::make_unique<tv::node::GeometryPublisher>(*participant_, pipeline_geometry());
     health_ = std::make_unique<tv::transport::Reader<tv::Health>>(*participant_, topics::kHealth,
                                                                   tv::transport::state_topic_qos());
     std::vector<std::string> argv{(tv::test::bin_dir() / executable).string(), "--domain",
@@ -121,6 +123,7 @@ class Service {
   std::filesystem::path dir_;
   std::string name_;
   std::unique_ptr<tv::transport::Participant> participant_;
+  std::unique_ptr<tv::node::GeometryPublisher> geometry_;
   std::unique_ptr<tv::transport::Reader<tv::Health>> health_;
   std::optional<tv::Health> last_;
   std::unique_ptr<ChildProcess> process_;
@@ -222,6 +225,7 @@ void fill_infrared(tv::GridStereoFrame& frame, cv::Size grid, std::uint64_t seq,
     image(cv::Rect(grid.width / 2, grid.height / 2, 20, 50)).setTo(9500);
   }
   frame.eyes(tv::EYES_BOTH);
+  frame.geometry_id(pipeline_geometry().id());
   frame.seq(seq);
   frame.capture_time_ns(capture_ns);
   frame.stamps(stamps({{tv::STAGE_BRIDGE, capture_ns + 1'000'000},
@@ -238,7 +242,7 @@ TEST(Corrupt, DetectNamesEveryBadFrameAndServesTheNextGoodOne) {
   ASSERT_TRUE(infrared.wait_for_readers(1, 10000ms));
   ASSERT_TRUE(detections.wait_for_writers(1, 10000ms));
 
-  const cv::Size grid = pipeline_geometry().grid.image_size();
+  const cv::Size grid = pipeline_geometry().grid_size();
   const std::int64_t t0 = 1'700'000'000 * kSecond;
   std::uint64_t seq = 10;
   auto send = [&](const std::function<void(tv::GridStereoFrame&)>& corrupt) {
@@ -256,6 +260,9 @@ TEST(Corrupt, DetectNamesEveryBadFrameAndServesTheNextGoodOne) {
                         f.step(f.width() * 2);
                       }),
                       std::to_string(grid.width - 2) + "x" + h + " image, this service's grid is");
+  detect.expect_named("another geometry",
+                      send([](tv::GridStereoFrame& f) { f.geometry_id(12345); }),
+                      "was made on geometry 12345");
   detect.expect_named("an unknown pixel format",
                       send([](tv::GridStereoFrame& f) { f.pixel_format(9); }),
                       "unknown pixel format 9");
@@ -371,6 +378,7 @@ TEST(Corrupt, RectifyFuseNamesEveryBadRawFrameAndServesTheNextGoodOne) {
 void fill_textured_pair(tv::GridStereoFrame& frame, cv::Size grid, int shift, std::uint64_t seq,
                         std::int64_t capture_ns) {
   tv::test::fill_textured_pair(frame, grid, shift, CV_8UC1);
+  frame.geometry_id(pipeline_geometry().id());
   frame.seq(seq);
   frame.capture_time_ns(capture_ns);
   frame.stamps(stamps({{tv::STAGE_BRIDGE, capture_ns + 1'000'000},
@@ -390,7 +398,7 @@ TEST(Corrupt, MatchNamesBadFramesAndDetectionsAndServesTheNextGoodOnes) {
   ASSERT_TRUE(detections.wait_for_readers(1, 10000ms));
   ASSERT_TRUE(matches.wait_for_writers(1, 10000ms));
 
-  const cv::Size grid = pipeline_geometry().grid.image_size();
+  const cv::Size grid = pipeline_geometry().grid_size();
   const std::int64_t t0 = 1'700'000'000 * kSecond;
   const int shift = 9;
   std::uint64_t seq = 20;

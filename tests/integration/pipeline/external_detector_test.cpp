@@ -18,8 +18,7 @@
 #include <thread>
 
 #include "pipeline_harness.hpp"
-#include "thermovis/node/pipeline_grid.hpp"
-#include "thermovis/range/stereo_ranger.hpp"
+#include "thermovis/pipeline/geometry.hpp"
 #include "thermovis/runtime/rig_io.hpp"
 #include "thermovis/runtime/scene_io.hpp"
 #include "thermovis/sim/simulated_rig.hpp"
@@ -90,8 +89,8 @@ TEST(ExternalDetector, CycloneDetectionsAreRangedByThePipeline) {
                                                tv::transport::event_topic_qos(64));
 
   const auto rig = tv::runtime::load_rig(tv::runtime::default_rig_path());
-  const auto geometry = tv::node::pipeline_geometry(rig, tv::node::GridOptions{});
-  const cv::Rect grid(cv::Point(0, 0), geometry.grid.image_size());
+  const auto geometry = tv::pipeline::make_geometry(rig, {});
+  const cv::Rect grid(cv::Point(0, 0), geometry.grid_size());
   const tv::sim::SimulatedRig sim(rig, tv::runtime::load_scene(scene_path), 1,
                                   tv::sim::RenderOptions{false, false});
 
@@ -116,10 +115,10 @@ TEST(ExternalDetector, CycloneDetectionsAreRangedByThePipeline) {
       for (const auto& t : sim.truth(static_cast<std::int64_t>(seq))) {
         const auto& raw = t.boxes[static_cast<std::size_t>(tv::sim::Slot::visible_left)];
         if (t.cls != tv::sim::TargetClass::person || !raw) continue;
-        const cv::Rect box = tv::range::raw_box_on_grid(
-                                 rig.camera(rig.visible.left), geometry.T_ref_left_rect,
-                                 geometry.grid, raw->x_min, raw->y_min, raw->x_max, raw->y_max) &
-                             grid;
+        const cv::Rect box =
+            tv::pipeline::raw_box_on_grid(geometry, rig, tv::pipeline::Band::visible, raw->x_min,
+                                          raw->y_min, raw->x_max, raw->y_max) &
+            grid;
         if (box.width < 4 || box.height < 8) continue;
         s.targets[++id] = t;
         detections.push_back(

@@ -22,7 +22,7 @@
 #include "pipeline_harness.hpp"
 #include "textured_pair.hpp"
 #include "thermovis/node/frame_codec.hpp"
-#include "thermovis/node/pipeline_grid.hpp"
+#include "thermovis/node/geometry_topic.hpp"
 #include "thermovis/range/ranging.hpp"
 #include "thermovis/runtime/rig_io.hpp"
 #include "thermovis/test/child_process.hpp"
@@ -50,6 +50,8 @@ class Harness {
  public:
   explicit Harness(int domain) : domain_(domain), dir_(tv::test::temp_dir("services")) {
     participant_ = tv::test::loopback_participant(domain, "services-test");
+    // The geometry rectify-fuse would publish: the services started alone wait for it.
+    geometry_ = std::make_unique<tv::node::GeometryPublisher>(*participant_, pipeline_geometry());
     health_ = std::make_unique<tv::transport::Reader<tv::Health>>(*participant_, topics::kHealth,
                                                                   tv::transport::state_topic_qos());
   }
@@ -91,6 +93,7 @@ class Harness {
   int domain_;
   std::filesystem::path dir_;
   std::unique_ptr<tv::transport::Participant> participant_;
+  std::unique_ptr<tv::node::GeometryPublisher> geometry_;
   std::unique_ptr<tv::transport::Reader<tv::Health>> health_;
   std::map<std::string, tv::Health> last_;
   std::vector<std::unique_ptr<ChildProcess>> processes_;
@@ -215,6 +218,7 @@ TEST_F(RangeService, CombinesATargetsTwoPairsAndNamesTheBand) {
 // The textured pair (textured_pair.hpp) in the fused band's format, captured at `seq` s.
 void fill_textured_pair(tv::GridStereoFrame& frame, cv::Size grid, int shift, std::uint64_t seq) {
   tv::test::fill_textured_pair(frame, grid, shift, CV_8UC3);
+  frame.geometry_id(pipeline_geometry().id());
   frame.seq(seq);
   frame.capture_time_ns(1'000'000'000LL * static_cast<std::int64_t>(seq));
   frame.stamps(tv::PipelineStamps{});
@@ -234,7 +238,7 @@ TEST(Services, MatchReportsABadDetectionAndServesTheNextGoodOne) {
   ASSERT_TRUE(detections.wait_for_readers(1, 10000ms));
   ASSERT_TRUE(matches.wait_for_writers(1, 10000ms));
 
-  const cv::Size grid = pipeline_geometry().grid.image_size();
+  const cv::Size grid = pipeline_geometry().grid_size();
   const int shift = 9;
   {
     // A fused frame with the left eye only (rectify-fuse's default): not a pair to match on.
@@ -349,7 +353,7 @@ TEST(Services, RectifyFuseReportsAWrongSizedFrameAndServesTheNextGoodOne) {
       },
       30s))
       << rf.log();
-  EXPECT_EQ(fused_size, pipeline_geometry().grid.image_size());
+  EXPECT_EQ(fused_size, pipeline_geometry().grid_size());
   // The display's frame: the left eye fused (a uniform grey scene inside the field), no right.
   EXPECT_EQ(fused_eyes, tv::EYES_LEFT);
   EXPECT_GT(fused_mean[0] + fused_mean[1] + fused_mean[2], 30.0);
@@ -359,12 +363,19 @@ TEST(Services, RectifyFuseReportsAWrongSizedFrameAndServesTheNextGoodOne) {
 
 TEST(Services, AConfigurationNamingAMissingFileIsAClearError) {
   Harness h(tv::test::private_domain());
-  for (const char* service : {"thermovis-detect", "thermovis-match", "thermovis-range"}) {
+  // The services that read the rig; the others take the geometry from thermovis/geometry and
+  // refuse a --rig they would not read.
+  for (const char* service : {"thermovis-bridge", "thermovis-rectify-fuse"}) {
     ChildProcess& p = h.start(service, {"--rig", "/nonexistent/thermovis/rig.yaml"});
     EXPECT_EQ(p.wait(30s), 1) << service;
     EXPECT_NE(p.log().find("/nonexistent/thermovis/rig.yaml"), std::string::npos)
         << service << ":\n"
         << p.log();
+  }
+  for (const char* service : {"thermovis-detect", "thermovis-match", "thermovis-range"}) {
+    ChildProcess& p = h.start(service, {"--rig", "/nonexistent/thermovis/rig.yaml"});
+    EXPECT_NE(p.wait(30s), 0) << service;
+    EXPECT_NE(p.log().find("--rig"), std::string::npos) << service << ":\n" << p.log();
   }
 }
 

@@ -151,7 +151,7 @@ class Ros2Bridge : public ::testing::Test {
     frame.capture_time_ns(fed.capture_ns);
     tv::transport::clear_stamps(frame.stamps());
     frame.eyes(tv::EYES_LEFT);
-    frame.reserved(0);
+    frame.geometry_id(0);
     if (corrupt) frame.pixel_format(77);
     fed.left = left.clone();
     fed.encoding = mono ? "mono8" : "bgr8";

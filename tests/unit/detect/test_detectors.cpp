@@ -6,8 +6,8 @@
 #include <opencv2/imgproc.hpp>
 
 #include "thermovis/detect/detectors.hpp"
-#include "thermovis/range/stereo_ranger.hpp"
 #include "thermovis/rectify/rig_rectification.hpp"
+#include "thermovis/rectify/stereo_geometry.hpp"
 #include "thermovis/runtime/rig_io.hpp"
 #include "thermovis/runtime/scene_io.hpp"
 #include "thermovis/sim/simulated_rig.hpp"
@@ -50,7 +50,6 @@ SceneResult run_scene(const std::string& name) {
   const sim::SimulatedRig simulated(rig, scene, 5);
   sim::FrameSet frames = simulated.allocate();
   simulated.render(0, frames);
-  const thermovis::range::StereoRanger ranger(rig);
   const auto infrared = thermovis::rectify::rectify_pair(
       rig, rig.infrared, thermovis::camera::RectifiedProjection::equirectangular);
   const auto visible = thermovis::rectify::rectify_pair(
@@ -66,11 +65,13 @@ SceneResult run_scene(const std::string& name) {
     const auto& bi = t.boxes[static_cast<size_t>(sim::Slot::infrared_left)];
     const auto& bv = t.boxes[static_cast<size_t>(sim::Slot::visible_left)];
     if (bi)
-      truth_ir.push_back(ranger.raw_box_to_rectified(thermovis::range::Mode::infrared, bi->x_min,
-                                                     bi->y_min, bi->x_max, bi->y_max));
+      truth_ir.push_back(thermovis::rectify::raw_box_on_grid(
+          rig.camera(rig.infrared.left), infrared.geometry.T_ref_left_rect, infrared.geometry.grid,
+          bi->x_min, bi->y_min, bi->x_max, bi->y_max));
     if (bv)
-      truth_vis.push_back(ranger.raw_box_to_rectified(thermovis::range::Mode::visible, bv->x_min,
-                                                      bv->y_min, bv->x_max, bv->y_max));
+      truth_vis.push_back(thermovis::rectify::raw_box_on_grid(
+          rig.camera(rig.visible.left), visible.geometry.T_ref_left_rect, visible.geometry.grid,
+          bv->x_min, bv->y_min, bv->x_max, bv->y_max));
   }
   dt::WarmBlobOptions wo;
   wo.camera_height_m = scene.camera_height_m - 0.06;  // the infrared camera is 60 mm lower

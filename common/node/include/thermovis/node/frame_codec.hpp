@@ -9,6 +9,7 @@
 
 #include "thermovis/frames.h"
 #include "thermovis/perception.h"
+#include "thermovis/pipeline/geometry.hpp"
 
 namespace thermovis::node {
 
@@ -17,7 +18,7 @@ class FrameError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-enum class Eye { left, right };
+using Eye = pipeline::Eye;
 
 // OpenCV type of a pixel format (CV_8UC3, CV_8UC1, CV_16UC1); FrameError for unknown ones.
 int cv_type_of(PixelFormat format);
@@ -30,9 +31,11 @@ PixelFormat pixel_format_of(int cv_type);
 cv::Mat view(const VisibleStereoFrame& frame, Eye eye);
 cv::Mat view(const InfraredStereoFrame& frame, Eye eye);
 cv::Mat view(const GridStereoFrame& frame, Eye eye);
-// The same, also checking that the frame is on the grid the reading service works on (every
-// service of a pipeline must use the same grid options).
+// The same, also checking that the frame is on the grid the reading service works on, and (with
+// geometry_id) that it was made on the geometry the service holds (a frame that says none, 0,
+// passes that check).
 cv::Mat view(const GridStereoFrame& frame, Eye eye, cv::Size grid);
+cv::Mat view(const GridStereoFrame& frame, Eye eye, cv::Size grid, std::uint32_t geometry_id);
 
 // Writable views into frames being filled (e.g. a loaned sample): sets width, height, step and
 // pixel_format, returns the Mat to render or copy into. FrameError when `size` does not fit.
@@ -73,6 +76,11 @@ class FrameOrder {
   std::uint64_t last_seq_ = 0;
   std::int64_t last_capture_ns_ = 0;
 };
+
+// The band of a measurement <-> the messages' BAND_* values. band_of: BAND_UNKNOWN (a writer that
+// does not say) is the visible band; FrameError for a value beyond BAND_FUSED.
+Band to_message(pipeline::Band band);
+pipeline::Band band_of(Band band);
 
 // Boxes of the perception messages <-> OpenCV rectangles (pixels of the rectified left image).
 // to_rect rounds outwards and gives an empty rectangle for a box with a non-finite field.

@@ -31,8 +31,9 @@ struct CommonOptions {
   int threads = 1;
 };
 
-// Adds --domain, --profile, --profiles-file, --rig and --threads to `app`.
-void add_common_options(CLI::App& app, CommonOptions& options);
+// Adds --domain, --profile, --profiles-file, --threads and, for a service that reads the rig
+// (bridge, rectify-fuse; the others take the geometry from thermovis/geometry), --rig.
+void add_common_options(CLI::App& app, CommonOptions& options, bool with_rig = true);
 
 std::unique_ptr<transport::Participant> make_participant(const CommonOptions& options);
 

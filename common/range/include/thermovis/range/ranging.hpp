@@ -78,6 +78,12 @@ PointTriangulation triangulate(const camera::RectifiedCamera& grid,
 PointTriangulation triangulate(const RangingGeometry& geometry, const Eigen::Vector2d& left_px,
                                double disparity_px);
 
+// The line-of-sight offset from a target's visible surface to its centre for a class (m), from
+// the simulated shapes' default geometry: person 0.118 (elliptic torso 0.3 m deep: 0.15 pi / 4),
+// pole 0.079 (0.2 m cylinder), marker 0.033 (0.1 m sphere); 0 for other classes (a car's depends
+// on its heading). Used where no TargetShape moves each point to the centre.
+double surface_to_centre_m(const std::string& target_class);
+
 // The inverse: where a point of the left rectified frame appears (left pixel and disparity).
 // False when it is not in front of both eyes' grids.
 bool project_point(const camera::RectifiedCamera& grid, double baseline_m,
@@ -132,8 +138,8 @@ struct RangeOptions {
   // (T_ref_left_rect: the rig is level).
   TargetShape shape;
   // With a shape: how far from its centre a point's correlation patch reaches, px (the matcher's
-  // patch radius, match::MatchOptions::patch_radius, whose default this follows; StereoRanger
-  // sets the radius it matched with). A point whose patch holds the target's
+  // patch radius, match::MatchOptions::patch_radius, whose default this follows; the tools set
+  // the radius they matched with). A point whose patch holds the target's
   // occluding contour is ranged at the contour's depth (the axis), not at its centre's surface:
   // the contour is the patch's strongest edge and the same in both eyes. Without this, points
   // inside the silhouette's edge were moved too far back (+0.03 m at 5 m, +0.04 m at 10 m).

@@ -53,4 +53,11 @@ cv::Mat build_map(const camera::RigCamera& camera, const Eigen::Isometry3d& T_re
                   const camera::RectifiedCamera& grid, double registration_distance_m = 0.0,
                   cv::Rect roi = {});
 
+// A box of a raw image of `camera` ([x_min, y_min, x_max, y_max] px) on `grid` seen from the
+// rectified frame T_ref_rect: the bounding box of its border's rays, rotated into that frame (at
+// infinity). Empty when none reaches the grid.
+cv::Rect raw_box_on_grid(const camera::RigCamera& camera, const Eigen::Isometry3d& T_ref_rect,
+                         const camera::RectifiedCamera& grid, double x_min, double y_min,
+                         double x_max, double y_max);
+
 }  // namespace thermovis::rectify

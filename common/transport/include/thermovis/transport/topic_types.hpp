@@ -5,6 +5,7 @@
 
 #include "thermovis/commonPubSubTypes.h"
 #include "thermovis/framesPubSubTypes.h"
+#include "thermovis/geometryPubSubTypes.h"
 #include "thermovis/healthPubSubTypes.h"
 #include "thermovis/perceptionPubSubTypes.h"
 
@@ -22,6 +23,7 @@ struct TypeSupportOf;
 THERMOVIS_TYPE_SUPPORT(VisibleStereoFrame);
 THERMOVIS_TYPE_SUPPORT(InfraredStereoFrame);
 THERMOVIS_TYPE_SUPPORT(GridStereoFrame);
+THERMOVIS_TYPE_SUPPORT(GridGeometry);
 THERMOVIS_TYPE_SUPPORT(DetectionArray);
 THERMOVIS_TYPE_SUPPORT(MatchArray);
 THERMOVIS_TYPE_SUPPORT(RangeArray);

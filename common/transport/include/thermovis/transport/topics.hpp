@@ -10,6 +10,8 @@ inline constexpr const char* kRectifiedVisible =
 inline constexpr const char* kRectifiedInfrared =
     "thermovis/rectified/infrared";                       // GridStereoFrame, MONO16 raw counts
 inline constexpr const char* kFused = "thermovis/fused";  // GridStereoFrame
+// GridGeometry: the grid frames' geometry, latched (public contract, like kRanges).
+inline constexpr const char* kGeometry = "thermovis/geometry";
 inline constexpr const char* kDetections = "thermovis/detections";  // DetectionArray
 inline constexpr const char* kMatches = "thermovis/matches";        // MatchArray
 inline constexpr const char* kRanges = "thermovis/ranges";          // RangeArray

@@ -1,0 +1,87 @@
+#pragma once
+// The rectified geometry every stage of the pipeline works on, as data: one grid that both eyes
+// of both bands share, and each pair's rectified frames on it. rectify-fuse makes it from the rig
+// and the grid options and publishes it (thermovis/geometry); the stages downstream, the offline
+// tools and other applications take it from there instead of rebuilding it, so that no two of
+// them can disagree about it.
+//
+// Frames (metres): the rig frame is the reference camera's (camera/rig.hpp). Every rectified
+// frame has the visible pair's rotation (x along the visible baseline, y down, z forward;
+// rectify/stereo_geometry.hpp); the visible pair's frames are centred on the visible cameras, the
+// infrared pair's on the infrared cameras: the infrared images are registered onto the visible
+// grid at infinity (pure rotation), so an infrared pixel's ray leaves the infrared camera's
+// centre. A point's disparity between the two registered infrared images follows the infrared
+// baseline; its right eye is not on the grid's x axis (the paper rig's two baselines differ in
+// direction by 11 deg), so its points are triangulated from the true right centre
+// (range::RangingGeometry::right_centre_m); the row offset this leaves is a fraction of a pixel
+// at the distances of interest and the matcher's row model absorbs it.
+#include <Eigen/Geometry>
+#include <cstdint>
+#include <string>
+
+#include "thermovis/camera/rectified.hpp"
+#include "thermovis/camera/rig.hpp"
+#include "thermovis/range/ranging.hpp"
+
+namespace thermovis::pipeline {
+
+enum class Eye { left, right };
+// The pair a measurement comes from. fused: the fused images (infrared registered at one
+// distance blended into the visible), or a range combined from both pairs.
+enum class Band { visible, infrared, fused };
+std::string band_name(Band band);
+
+struct GridOptions {
+  double scale = 0.5;  // of the visible pair's default grid: 0.5 is about the infrared's own
+  camera::RectifiedProjection projection = camera::RectifiedProjection::equirectangular;
+  // Distance at which the infrared is registered onto the visible, m (<= 0: infinity, which
+  // PipelineGeometry::infrared describes exactly; rectify_fuse_stage.hpp).
+  double registration_distance_m = 0.0;
+};
+
+// One pair on the grid: its two rectified frames in the rig frame (the same rotation) and the
+// names of its cameras.
+struct PairGeometry {
+  std::string left_camera, right_camera;
+  Eigen::Isometry3d T_ref_left_rect = Eigen::Isometry3d::Identity();
+  Eigen::Isometry3d T_ref_right_rect = Eigen::Isometry3d::Identity();
+  // The right centre's offset from the left one along the grid's x axis, m (the disparity's
+  // baseline; the whole baseline for the visible pair).
+  double baseline_m = 0.0;
+};
+
+struct PipelineGeometry {
+  camera::RectifiedIntrinsics grid;
+  PairGeometry visible, infrared;
+  // The left visible camera in the rig frame: ranges are reported from its centre, in its frame.
+  Eigen::Isometry3d T_ref_reporting = Eigen::Isometry3d::Identity();
+  double registration_distance_m = 0.0;  // GridOptions'
+
+  cv::Size grid_size() const { return {grid.width, grid.height}; }
+  // The ranging geometry of a pair's points (fused points: the visible pair's).
+  range::RangingGeometry ranging(Band band) const;
+  // A digest of every field (FNV-1a over the values): frames carry it, so a reader knows the
+  // geometry it holds is the one a frame was made on. Never 0.
+  std::uint32_t id() const;
+};
+
+// Throws std::invalid_argument for a rig without its pairs' cameras or a degenerate pair.
+PipelineGeometry make_geometry(const camera::Rig& rig, const GridOptions& options);
+
+// Checks a geometry received from elsewhere (a message, a file): std::invalid_argument naming
+// the field for a grid that is empty or larger than `max_size`, a non-finite or non-positive f,
+// a non-finite centre or pose, a rotation that is not one (|R^T R - I| > 1e-6), the two pairs
+// not sharing one rotation, or a baseline that is not positive.
+void validate(const PipelineGeometry& geometry, cv::Size max_size);
+
+// The largest disparity either pair can show for a target at min_distance_m or further (the
+// matcher's search range), px.
+double max_disparity(const PipelineGeometry& geometry, double min_distance_m);
+
+// A box of a raw left image of `band`'s pair ([x_min, y_min, x_max, y_max] px of the left visible
+// or infrared camera of `rig`) on the grid: the bounding box of its border's rays, rotated into
+// the grid's frame (at infinity, as the registration). Empty when none reaches the grid.
+cv::Rect raw_box_on_grid(const PipelineGeometry& geometry, const camera::Rig& rig, Band band,
+                         double x_min, double y_min, double x_max, double y_max);
+
+}  // namespace thermovis::pipeline

@@ -1,0 +1,61 @@
+#pragma once
+// Stage 4: one distance, 3-D position and uncertainty per target from its correspondences.
+// Each pair's points are triangulated with that pair's geometry (Eq. 31-33; infrared points from
+// the infrared cameras' own centres) and reduced with Eq. 34 and an uncertainty
+// (range::range_target); the distance is the target's centre's for known classes (the class's
+// shape, range::TargetShape, or a fixed surface-to-centre offset). A target measured on two
+// pairs (the match stage's `both`) has its two independent ranges combined by their
+// uncertainties (range::combine_ranges) and is reported as Band::fused.
+#include <Eigen/Core>
+#include <opencv2/core/types.hpp>
+#include <string>
+#include <vector>
+
+#include "thermovis/match/stereo_match.hpp"
+#include "thermovis/pipeline/geometry.hpp"
+#include "thermovis/range/ranging.hpp"
+
+namespace thermovis::pipeline {
+
+struct RangeStageOptions {
+  // contour_reach_px must be the patch radius the points were matched with (its default is the
+  // matcher's default).
+  range::RangeOptions range;
+  bool surface = false;  // report the distance of the visible surface, not the target's centre
+};
+
+// One pair's measurement of a target: the box it was matched in (left image of the grid) and
+// its correspondences (only those whose left pixel lies in the box are used).
+struct TargetEntry {
+  Band band = Band::visible;
+  std::string label;  // the class: it chooses the shape
+  cv::Rect box;
+  std::vector<match::Correspondence> points;
+};
+
+struct RangedTarget {
+  range::TargetRange range;   // position_m in the rig frame
+  Band band = Band::visible;  // the pair that gave it, Band::fused when two were combined
+  // From the left visible camera's centre, in its frame (the public contract's frame).
+  double distance_m = range::TargetRange::nan;
+  Eigen::Vector3d position_m = Eigen::Vector3d::Constant(range::TargetRange::nan);
+  bool ok() const { return range.status == range::RangeStatus::ok && std::isfinite(distance_m); }
+};
+
+class RangeStage {
+ public:
+  RangeStage(const PipelineGeometry& geometry, const RangeStageOptions& options = {});
+  // One target's entries: one, or two of different pairs (infrared and another). Throws
+  // std::invalid_argument for none, more than two, or two of one pair. Bad points or boxes
+  // give a status (range::RangeStatus), never an exception.
+  RangedTarget range(const std::vector<TargetEntry>& entries) const;
+
+ private:
+  range::TargetRange range_entry(const TargetEntry& entry, double& shared_sigma_m) const;
+
+  range::RangingGeometry visible_, infrared_;
+  Eigen::Isometry3d T_reporting_ref_;
+  RangeStageOptions options_;
+};
+
+}  // namespace thermovis::pipeline

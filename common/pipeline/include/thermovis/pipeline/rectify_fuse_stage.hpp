@@ -1,0 +1,70 @@
+#pragma once
+// Stage 1: raw captures -> both bands on the pipeline grid, and the fused images.
+//
+// One composed map per camera (distortion correction + rectification, and for the infrared
+// cameras the registration onto their eye's visible frame), computed once and applied in fixed
+// point (fpga/remap.hpp: bit-exact with the FPGA model). Pixel formats:
+//  - visible: raw CV_8UC3 (BGR) or CV_8UC1 of the visible camera's size -> the same type on the
+//    grid;
+//  - infrared: raw CV_16UC1 counts (or CV_8UC1) of the infrared camera's size -> the same type on
+//    the grid: the counts are kept (detection thresholds on temperature, matching stretches each
+//    box's surroundings itself);
+//  - fused: the visible image's type. The infrared goes through the thermal cameras' gain control
+//    (enhance/infrared_agc.hpp, one per eye: its mapping is smoothed over frames), then the
+//    fusion (fuse/fusion.hpp) with the visible contrast enhancement on the same luma.
+// The infrared is registered onto the visible at the geometry's registration distance, infinity
+// by default, which the infrared pair's geometry (PipelineGeometry::infrared) describes exactly;
+// at a finite distance the fused images align there and infrared ranges off it are biased.
+#include <array>
+#include <memory>
+#include <opencv2/core/mat.hpp>
+
+#include "thermovis/camera/rig.hpp"
+#include "thermovis/enhance/infrared_agc.hpp"
+#include "thermovis/fpga/remap.hpp"
+#include "thermovis/fuse/fusion.hpp"
+#include "thermovis/pipeline/geometry.hpp"
+
+namespace thermovis::pipeline {
+
+struct RectifyFuseOptions {
+  // Fusion of the luma, with the visible contrast enhancement (CLAHE) done on the same luma.
+  fuse::FusionOptions fusion{
+      fuse::FusionMethod::fast, fuse::ColourMode::luminance, {}, enhance::VisibleContrastParams{}};
+  enhance::AgcParams agc;
+};
+
+class RectifyFuseStage {
+ public:
+  // Computes the maps (a second or two on the full grid). Throws std::invalid_argument for a rig
+  // without the geometry's cameras.
+  RectifyFuseStage(const camera::Rig& rig, const PipelineGeometry& geometry,
+                   const RectifyFuseOptions& options = {});
+  ~RectifyFuseStage();
+
+  const PipelineGeometry& geometry() const { return geometry_; }
+  cv::Size grid_size() const { return geometry_.grid_size(); }
+
+  // `out` is reused when it has the grid's size and the input's type (a loaned sample's buffer).
+  // Throws std::invalid_argument naming the camera for a wrong size or type.
+  void rectify_visible(Eye eye, const cv::Mat& raw, cv::Mat& out) const;
+  void rectify_infrared(Eye eye, const cv::Mat& raw, cv::Mat& out) const;
+  // The gain-controlled (CV_8UC1) image of rectified infrared counts; updates the eye's mapping.
+  cv::Mat gain_control(Eye eye, const cv::Mat& infrared);
+  // Gain control, then fusion with the rectified visible image of the same eye, into `fused`.
+  void fuse(Eye eye, const cv::Mat& infrared, const cv::Mat& visible, cv::Mat& fused);
+
+ private:
+  struct Eyes {
+    std::unique_ptr<fpga::FastRemapper> left, right;
+    const fpga::FastRemapper& operator[](Eye eye) const {
+      return eye == Eye::left ? *left : *right;
+    }
+  };
+  PipelineGeometry geometry_;
+  RectifyFuseOptions options_;
+  Eyes visible_, infrared_;
+  std::array<enhance::InfraredAgc, 2> agc_;
+};
+
+}  // namespace thermovis::pipeline

@@ -1,0 +1,23 @@
+#include "thermovis/pipeline/detect_stage.hpp"
+
+#include <stdexcept>
+
+namespace thermovis::pipeline {
+
+DetectStage::DetectStage(const PipelineGeometry& geometry, const DetectOptions& options)
+    : grid_(geometry.grid), options_(options) {}
+
+std::vector<detect::Detection> DetectStage::detect(const cv::Mat& infrared,
+                                                   const cv::Mat& fused) const {
+  if (infrared.type() != CV_8UC1 && infrared.type() != CV_16UC1) {
+    throw std::invalid_argument("detect: the infrared image must be MONO8 or MONO16");
+  }
+  std::vector<detect::Detection> found = detect::detect_warm_blobs(infrared, grid_, options_.blobs);
+  if (options_.hog && !fused.empty()) {
+    auto people = detect::detect_people_hog(fused, options_.hog_options);
+    found.insert(found.end(), people.begin(), people.end());
+  }
+  return detect::merge_detections(std::move(found), options_.nms_iou);
+}
+
+}  // namespace thermovis::pipeline

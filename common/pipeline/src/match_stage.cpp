@@ -1,0 +1,154 @@
+#include "thermovis/pipeline/match_stage.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+#include <stdexcept>
+
+namespace thermovis::pipeline {
+namespace {
+
+// Counts of the region both eyes' searches look at, stretched linearly to 8 bits between the
+// left region's 0.5 and 99.5 percentiles (the same mapping for both eyes).
+void stretch_counts(const cv::Mat& left, const cv::Mat& right, cv::Mat& left8, cv::Mat& right8) {
+  std::vector<std::uint16_t> values;
+  values.reserve(static_cast<std::size_t>(left.total()));
+  for (int r = 0; r < left.rows; ++r) {
+    const auto* row = left.ptr<std::uint16_t>(r);
+    for (int c = 0; c < left.cols; ++c)
+      if (row[c] != 0) values.push_back(row[c]);  // 0: outside the camera's field
+  }
+  double lo = 0, hi = 1;
+  if (!values.empty()) {
+    const auto at = [&](double q) {
+      auto it =
+          values.begin() + static_cast<std::ptrdiff_t>(q * static_cast<double>(values.size() - 1));
+      std::nth_element(values.begin(), it, values.end());
+      return static_cast<double>(*it);
+    };
+    lo = at(0.005);
+    hi = std::max(lo + 1.0, at(0.995));
+  }
+  const double gain = 255.0 / (hi - lo);
+  left.convertTo(left8, CV_8U, gain, -lo * gain);
+  right.convertTo(right8, CV_8U, gain, -lo * gain);
+}
+
+void check_pair(const cv::Mat& left, const cv::Mat& right, cv::Size grid, int type,
+                const char* what) {
+  if (left.size() != grid || right.size() != grid) {
+    throw std::invalid_argument(std::string("match: the ") + what + " pair is not on the grid (" +
+                                std::to_string(left.cols) + "x" + std::to_string(left.rows) +
+                                ", grid " + std::to_string(grid.width) + "x" +
+                                std::to_string(grid.height) + ")");
+  }
+  if (left.type() != type || right.type() != type) {
+    throw std::invalid_argument(std::string("match: the ") + what + " pair must be " +
+                                (type == CV_16UC1 ? "16-bit counts" : "8-bit grey"));
+  }
+}
+
+}  // namespace
+
+BandChoice parse_band_choice(const std::string& name) {
+  if (name == "visible") return BandChoice::visible;
+  if (name == "infrared") return BandChoice::infrared;
+  if (name == "fused") return BandChoice::fused;
+  if (name == "auto") return BandChoice::automatic;
+  if (name == "both") return BandChoice::both;
+  throw std::invalid_argument("unknown band '" + name + "' (visible, infrared, fused, auto, both)");
+}
+
+MatchStage::MatchStage(const PipelineGeometry& geometry, const MatchStageOptions& options)
+    : grid_size_(geometry.grid_size()), options_(options) {
+  options_.match.min_disparity_px = 0.0;
+  options_.match.max_disparity_px = max_disparity(geometry, options.min_distance_m);
+}
+
+Band MatchStage::primary_band() const {
+  switch (options_.band) {
+    case BandChoice::fused:
+      return Band::fused;
+    case BandChoice::infrared:
+      return Band::infrared;
+    default:
+      return Band::visible;
+  }
+}
+
+bool MatchStage::uses_infrared() const {
+  return options_.band == BandChoice::infrared || options_.band == BandChoice::automatic ||
+         options_.band == BandChoice::both;
+}
+
+cv::Mat MatchStage::stage_grey(const cv::Mat& image) {
+  cv::Mat grey;
+  if (image.type() == CV_8UC3) {
+    cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+  } else if (image.type() == CV_8UC1 || image.type() == CV_16UC1) {
+    grey = image.clone();
+  } else {
+    throw std::invalid_argument("match: unsupported pixel type (BGR8, MONO8 or MONO16)");
+  }
+  return grey;
+}
+
+match::MatchResult MatchStage::match_on(Band band, const cv::Mat& left, const cv::Mat& right,
+                                        const cv::Rect& box) const {
+  if (band != Band::infrared) {
+    check_pair(left, right, grid_size_, CV_8UC1, band == Band::fused ? "fused" : "visible");
+    return match::match_box(left, right, box, options_.match);
+  }
+  check_pair(left, right, grid_size_, CV_16UC1, "infrared");
+  // The box's search region (the same in both eyes, so disparities are kept) stretched to 8
+  // bits, matched there, and the points moved back to the whole image.
+  const int pad = options_.match.patch_radius + 8;
+  const int reach = static_cast<int>(std::ceil(options_.match.max_disparity_px));
+  const cv::Rect region = cv::Rect(box.x - reach - pad, box.y - pad, box.width + reach + 2 * pad,
+                                   box.height + 2 * pad) &
+                          cv::Rect(0, 0, left.cols, left.rows);
+  if (region.empty()) return {};
+  cv::Mat left8, right8;
+  stretch_counts(left(region), right(region), left8, right8);
+  match::MatchResult result = match::match_box(left8, right8, box - region.tl(), options_.match);
+  const Eigen::Vector2d offset(region.x, region.y);
+  for (auto& c : result.matches) {
+    c.left += offset;
+    c.right += offset;
+  }
+  result.box += region.tl();
+  return result;
+}
+
+std::vector<BandMatches> MatchStage::match(const MatchImages& images, const cv::Rect& box) const {
+  const bool has_primary = uses_primary() && !images.primary_left.empty();
+  const bool has_infrared = uses_infrared() && !images.infrared_left.empty();
+  std::vector<BandMatches> out;
+  if (options_.band == BandChoice::infrared) {
+    if (has_infrared) {
+      out.push_back({Band::infrared,
+                     match_on(Band::infrared, images.infrared_left, images.infrared_right, box)});
+    }
+    return out;
+  }
+  if (has_primary) {
+    out.push_back(
+        {primary_band(), match_on(primary_band(), images.primary_left, images.primary_right, box)});
+  }
+  if (!has_infrared) return out;
+  if (options_.band == BandChoice::both) {
+    out.push_back({Band::infrared,
+                   match_on(Band::infrared, images.infrared_left, images.infrared_right, box)});
+  } else if (options_.band == BandChoice::automatic &&
+             (out.empty() ||
+              static_cast<int>(out.front().result.matches.size()) < options_.min_visible_points)) {
+    BandMatches infrared{
+        Band::infrared, match_on(Band::infrared, images.infrared_left, images.infrared_right, box)};
+    if (out.empty() || infrared.result.matches.size() > out.front().result.matches.size()) {
+      out.assign(1, std::move(infrared));
+    }
+  }
+  return out;
+}
+
+}  // namespace thermovis::pipeline

@@ -1,0 +1,146 @@
+// The match, range and detect stages on synthetic pairs: the bands each choice matches on, the
+// infrared counts' own stretch, and the errors a wrong input gets.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+
+#include "thermovis/pipeline/detect_stage.hpp"
+#include "thermovis/pipeline/match_stage.hpp"
+#include "thermovis/pipeline/range_stage.hpp"
+#include "thermovis/runtime/rig_io.hpp"
+
+namespace pl = thermovis::pipeline;
+
+namespace {
+
+const pl::PipelineGeometry& geometry() {
+  static const auto g =
+      pl::make_geometry(thermovis::runtime::load_rig(thermovis::runtime::default_rig_path()), {});
+  return g;
+}
+
+// A blurred-noise texture on the grid and the same shifted left by `shift` columns (a
+// fronto-parallel scene at one disparity), as grey and as infrared counts (8000 + 4 x grey).
+struct Pairs {
+  explicit Pairs(int shift) {
+    const cv::Size grid = geometry().grid_size();
+    cv::Mat noise(grid, CV_8UC1);
+    cv::RNG rng(7);
+    rng.fill(noise, cv::RNG::UNIFORM, 0, 256);
+    cv::GaussianBlur(noise, grey_left, cv::Size(5, 5), 1.2);
+    grey_right = cv::Mat::zeros(grid, CV_8UC1);
+    grey_left.colRange(shift, grid.width).copyTo(grey_right.colRange(0, grid.width - shift));
+    grey_left.convertTo(counts_left, CV_16U, 4, 8000);
+    grey_right.convertTo(counts_right, CV_16U, 4, 8000);
+  }
+  pl::MatchImages images(bool flat_visible = false) const {
+    if (!flat_visible) return {grey_left, grey_right, counts_left, counts_right};
+    const cv::Mat flat(grey_left.size(), CV_8UC1, cv::Scalar(90));
+    return {flat, flat.clone(), counts_left, counts_right};
+  }
+  cv::Mat grey_left, grey_right, counts_left, counts_right;
+};
+
+pl::MatchStage stage(pl::BandChoice band) {
+  pl::MatchStageOptions o;
+  o.band = band;
+  return pl::MatchStage(geometry(), o);
+}
+
+const cv::Rect kBox(400, 250, 40, 60);
+
+}  // namespace
+
+TEST(MatchStage, EachChoiceMatchesItsPairsAtTheTrueDisparity) {
+  const Pairs pairs(12);
+  const auto both = stage(pl::BandChoice::both).match(pairs.images(), kBox);
+  ASSERT_EQ(both.size(), 2u);
+  EXPECT_EQ(both[0].band, pl::Band::visible);  // the primary pair first
+  EXPECT_EQ(both[1].band, pl::Band::infrared);
+  for (const auto& band : both) {
+    ASSERT_GE(band.result.matches.size(), 10u) << pl::band_name(band.band);
+    for (const auto& c : band.result.matches) {
+      EXPECT_NEAR(c.disparity_px, 12.0, 0.1) << pl::band_name(band.band);
+      EXPECT_TRUE(
+          kBox.contains(cv::Point(static_cast<int>(c.left.x()), static_cast<int>(c.left.y()))));
+    }
+  }
+  const auto visible = stage(pl::BandChoice::visible).match(pairs.images(), kBox);
+  ASSERT_EQ(visible.size(), 1u);
+  EXPECT_EQ(visible[0].band, pl::Band::visible);
+  const auto infrared = stage(pl::BandChoice::infrared).match(pairs.images(), kBox);
+  ASSERT_EQ(infrared.size(), 1u);
+  EXPECT_EQ(infrared[0].band, pl::Band::infrared);
+  // auto: the visible pair while it has points, the infrared one where it is flat.
+  const auto automatic = stage(pl::BandChoice::automatic);
+  EXPECT_EQ(automatic.match(pairs.images(), kBox).at(0).band, pl::Band::visible);
+  EXPECT_EQ(automatic.match(pairs.images(true), kBox).at(0).band, pl::Band::infrared);
+  // A pair that is not there is left out, not invented.
+  pl::MatchImages no_infrared = pairs.images();
+  no_infrared.infrared_left = no_infrared.infrared_right = cv::Mat();
+  EXPECT_EQ(stage(pl::BandChoice::both).match(no_infrared, kBox).size(), 1u);
+  EXPECT_TRUE(stage(pl::BandChoice::infrared).match(no_infrared, kBox).empty());
+}
+
+TEST(MatchStage, ImagesOffTheGridOrOfTheWrongTypeAreNamed) {
+  const Pairs pairs(12);
+  const auto matcher = stage(pl::BandChoice::both);
+  pl::MatchImages small = pairs.images();
+  small.primary_left = small.primary_left(cv::Rect(0, 0, 100, 100)).clone();
+  EXPECT_THROW(matcher.match(small, kBox), std::invalid_argument);
+  pl::MatchImages grey_infrared = pairs.images();
+  grey_infrared.infrared_left = pairs.grey_left;
+  grey_infrared.infrared_right = pairs.grey_right;
+  try {
+    matcher.match(grey_infrared, kBox);
+    ADD_FAILURE() << "8-bit infrared was matched as counts";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("infrared pair must be 16-bit counts"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_THROW(pl::MatchStage::stage_grey(cv::Mat(4, 4, CV_32FC1)), std::invalid_argument);
+}
+
+TEST(RangeStage, CombinesTwoPairsAndRefusesTwoEntriesOfOne) {
+  const Pairs pairs(12);
+  const auto both = stage(pl::BandChoice::both).match(pairs.images(), kBox);
+  ASSERT_EQ(both.size(), 2u);
+  const pl::RangeStage ranger(geometry());
+  const pl::TargetEntry visible{pl::Band::visible, "wall", kBox, both[0].result.matches};
+  const pl::TargetEntry infrared{pl::Band::infrared, "wall", kBox, both[1].result.matches};
+  const pl::RangedTarget v = ranger.range({visible});
+  const pl::RangedTarget i = ranger.range({infrared});
+  const pl::RangedTarget f = ranger.range({visible, infrared});
+  ASSERT_TRUE(v.ok() && i.ok() && f.ok());
+  EXPECT_EQ(f.band, pl::Band::fused);
+  EXPECT_LT(f.range.sigma_m, std::min(v.range.sigma_m, i.range.sigma_m));
+  // 12 px on each pair's own baseline: the two pairs' distances differ by their baselines.
+  EXPECT_NEAR(v.distance_m / i.distance_m,
+              geometry().visible.baseline_m / geometry().infrared.baseline_m, 0.03);
+  EXPECT_THROW(ranger.range({visible, visible}), std::invalid_argument);
+  EXPECT_THROW(ranger.range({}), std::invalid_argument);
+  // No points: a status, never a number.
+  const pl::RangedTarget none = ranger.range({{pl::Band::visible, "person", kBox, {}}});
+  EXPECT_FALSE(none.ok());
+  EXPECT_FALSE(none.range.message.empty());
+}
+
+TEST(DetectStage, FindsAWarmPersonAndRefusesColour) {
+  const pl::DetectStage detector(geometry());
+  const cv::Size grid = geometry().grid_size();
+  cv::Mat counts(grid, CV_16UC1);
+  cv::randn(counts, 8000, 30);
+  // A warm block the size of a person standing on the ground 10 m ahead (rig 1.4 m high).
+  const auto& g = geometry().grid;
+  const int top = static_cast<int>(g.cy + g.f * std::atan((1.4 - 1.75) / 10.0));
+  const int foot = static_cast<int>(g.cy + g.f * std::atan(1.4 / 10.0));
+  const cv::Rect person(static_cast<int>(g.cx), top, static_cast<int>(g.f * 0.5 / 10.0),
+                        foot - top);
+  counts(person).setTo(9500);
+  const auto found = detector.detect(counts);
+  int on_person = 0;
+  for (const auto& d : found) on_person += (d.box & person).area() > person.area() / 2;
+  EXPECT_EQ(on_person, 1) << found.size() << " detections";
+  EXPECT_THROW(detector.detect(cv::Mat(grid, CV_8UC3)), std::invalid_argument);
+}
