@@ -45,24 +45,29 @@ struct Problem {
   std::array<double, kPoseSize> right_left{};
 };
 
-// Residuals of one pair (left then right corners); false where a corner is not projectable.
-bool pair_errors(const Problem& p, size_t pair, const View& l, const View& r,
-                 std::vector<double>& errors) {
+// 2-D errors (px) of one pair's corners (left then right); throws std::runtime_error naming
+// the pair where a corner is not projectable.
+std::vector<double> pair_errors(const Problem& p, size_t pair, const View& l, const View& r) {
+  const auto fail = [&l, &r] {
+    return std::runtime_error("stereo calibration: a corner of pair " + l.name + " / " + r.name +
+                              " cannot be projected");
+  };
+  std::vector<double> errors;
   for (size_t j = 0; j < p.board.size(); ++j) {
     double res[2];
     if (l.corners[j].allFinite()) {
       detail::CornerResidual c{p.board[j], l.corners[j], p.left_scale};
-      if (!c(p.left_intr.data(), p.board_poses[pair].data(), res)) return false;
+      if (!c(p.left_intr.data(), p.board_poses[pair].data(), res)) throw fail();
       errors.push_back(std::hypot(res[0], res[1]));
     }
     if (r.corners[j].allFinite()) {
       detail::SecondCameraCornerResidual c{{p.board[j], r.corners[j], p.right_scale}};
       if (!c(p.right_intr.data(), p.board_poses[pair].data(), p.right_left.data(), res))
-        return false;
+        throw fail();
       errors.push_back(std::hypot(res[0], res[1]));
     }
   }
-  return true;
+  return errors;
 }
 
 void solve(Problem& p, const std::vector<View>& left, const std::vector<View>& right,
@@ -158,10 +163,7 @@ StereoCalibration calibrate_stereo(const std::vector<View>& left, const std::vec
     double sum = 0;
     size_t count = 0;
     for (size_t i : used) {
-      std::vector<double> e;
-      if (!pair_errors(p, i, left[i], right[i], e))
-        throw std::runtime_error("stereo calibration: a corner of pair " + left[i].name + " / " +
-                                 right[i].name + " cannot be projected");
+      const std::vector<double> e = pair_errors(p, i, left[i], right[i]);
       for (double x : e) sum += x * x;
       count += e.size();
     }
@@ -202,10 +204,7 @@ StereoCalibration calibrate_stereo(const std::vector<View>& left, const std::vec
   double sum = 0;
   size_t count = 0;
   for (size_t i : used) {
-    std::vector<double> e;
-    if (!pair_errors(p, i, l_fit[i], r_fit[i], e))
-      throw std::runtime_error("stereo calibration: a corner of pair " + left[i].name + " / " +
-                               right[i].name + " cannot be projected");
+    const std::vector<double> e = pair_errors(p, i, l_fit[i], r_fit[i]);
     double s = 0;
     for (double x : e) s += x * x;
     out.pairs.push_back({left[i].name, right[i].name, std::sqrt(s / e.size())});

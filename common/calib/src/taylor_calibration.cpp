@@ -394,6 +394,22 @@ ceres::Solver::Options solver_options(int threads) {
 
 }  // namespace detail
 
+namespace {
+
+// One refinement round over the views added to `problem` (the intrinsics' unused slots, and
+// the centre unless refined, held constant); adds its iterations to `out`.
+void refine_round(ceres::Problem& problem, double* intr, int degree,
+                  const TaylorCalibrationOptions& options, TaylorCalibration& out) {
+  detail::constrain_intrinsics(problem, intr, degree, options.refine_centre);
+  ceres::Solver::Summary summary;
+  ceres::Solve(detail::solver_options(options.threads), &problem, &summary);
+  out.iterations += static_cast<int>(summary.iterations.size());
+  if (!summary.IsSolutionUsable())
+    throw std::runtime_error("calibration: refinement failed: " + summary.message);
+}
+
+}  // namespace
+
 TaylorCalibration calibrate_taylor(const std::vector<View>& views, const BoardSpec& board,
                                    cv::Size image_size, const TaylorCalibrationOptions& options) {
   check_views(views, board, image_size);
@@ -426,12 +442,7 @@ TaylorCalibration calibrate_taylor(const std::vector<View>& views, const BoardSp
       for (int i : used)
         detail::add_view(problem, pts, views[static_cast<size_t>(i)], radius_scale,
                          options.robust_loss_px, intr.data(), poses[static_cast<size_t>(i)].data());
-      detail::constrain_intrinsics(problem, intr.data(), degree, options.refine_centre);
-      ceres::Solver::Summary summary;
-      ceres::Solve(detail::solver_options(options.threads), &problem, &summary);
-      out.iterations += static_cast<int>(summary.iterations.size());
-      if (!summary.IsSolutionUsable())
-        throw std::runtime_error("calibration: refinement failed: " + summary.message);
+      refine_round(problem, intr.data(), degree, options, out);
       // Outlier views: far above the others.
       std::vector<double> rms;
       for (int i : used) rms.push_back(rms_of(intr, radius_scale, poses, pts, views, {i}));
@@ -466,12 +477,7 @@ TaylorCalibration calibrate_taylor(const std::vector<View>& views, const BoardSp
         detail::add_view(problem, pts, view, radius_scale, 0.0, intr.data(),
                          poses[static_cast<size_t>(i)].data());
       }
-      detail::constrain_intrinsics(problem, intr.data(), degree, options.refine_centre);
-      ceres::Solver::Summary summary;
-      ceres::Solve(detail::solver_options(options.threads), &problem, &summary);
-      out.iterations += static_cast<int>(summary.iterations.size());
-      if (!summary.IsSolutionUsable())
-        throw std::runtime_error("calibration: refinement failed: " + summary.message);
+      refine_round(problem, intr.data(), degree, options, out);
     }
   }
 

@@ -1,5 +1,6 @@
 #pragma once
-// The Taylor model's world2cam written for Ceres (private to the calibration code).
+// The Taylor model's world2cam for Ceres (private to the calibration code): the shared
+// projection (thermovis/camera/taylor_projection.hpp) on the calibration's parameter blocks.
 //
 // Intrinsic parameter block, length kIntrinsicsSize:
 //   [xc (row), yc (column), c, s (= d = e, the rotation gauge pinned), b0, b2, ..., b_kMaxDegree]
@@ -11,10 +12,18 @@
 #include <ceres/rotation.h>
 
 #include <Eigen/Core>
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
 #include "thermovis/camera/taylor.hpp"
+#include "thermovis/camera/taylor_projection.hpp"
+
+// The projection's root search runs on the Jets' values.
+template <int N>
+struct thermovis::camera::taylor::ScalarValue<ceres::Jet<double, N>> {
+  static double of(const ceres::Jet<double, N>& x) { return x.a; }
+};
 
 namespace thermovis::calib::detail {
 
@@ -23,76 +32,38 @@ inline constexpr int kCoefficientSlots = kMaxDegree;  // b0, b2..b6
 inline constexpr int kIntrinsicsSize = 4 + kCoefficientSlots;
 inline constexpr int kPoseSize = 6;  // angle-axis (3), translation mm (3); p_cam = R p + t
 
-inline double value_of(double x) { return x; }
-template <int N>
-double value_of(const ceres::Jet<double, N>& x) {
-  return x.a;
-}
+// The calibration's radius search, in the normalised radius: tighter than TaylorCamera's, since
+// the cost's derivatives are taken at the root.
+inline constexpr camera::taylor::RadiusSearch kRadiusSearch{40, 1e-13, 1e-13, 1e-15};
 
-// Polynomial g(rho_n) = sum b_k rho_n^k - m_scaled rho_n and its derivative, b1 = 0.
+// The shared projection's view of an intrinsic block: the full polynomial a0, a1 = 0, a2, ...
+// in rho / radius_scale, built in `pol` (kMaxDegree + 1 values).
 template <typename T>
-T poly_minus_line(const T* b, const T& m_scaled, const T& x) {
-  T value = b[kCoefficientSlots - 1];
-  for (int k = kCoefficientSlots - 2; k >= 1; --k) value = value * x + b[k];
-  // value = b2 + b3 x + ... ; full = b0 + x^2 * value
-  return b[0] + x * x * value - m_scaled * x;
-}
-
-inline double dpoly_minus_line(const double* b, double m_scaled, double x) {
-  // d/dx [b0 + sum_{k>=2} b_k x^k] = sum k b_k x^(k-1)
-  double value = 0.0;
-  for (int k = kCoefficientSlots - 1; k >= 1; --k) value = value * x + (k + 1) * b[k];
-  return x * value - m_scaled;
+camera::taylor::Parameters<T> parameters(const T* intr, double radius_scale, T* pol) {
+  pol[0] = intr[4];
+  pol[1] = T(0.0);
+  for (int k = 2; k <= kMaxDegree; ++k) pol[k] = intr[4 + k - 1];
+  return {{intr[0], intr[1], intr[2], intr[3], intr[3]}, pol, kMaxDegree + 1, radius_scale};
 }
 
 // Sensor radius (normalised) of an observed pixel under the current intrinsics (doubles):
 // the starting point of the root search, so the root found is the one near the observation.
 inline double observed_radius(const double* intr, double radius_scale, const Eigen::Vector2d& px) {
-  const double c = intr[2], s = intr[3];
-  const double dr = px.y() - intr[0], dc = px.x() - intr[1];
-  const double invdet = 1.0 / (c - s * s);
-  const double u = invdet * (dr - s * dc), v = invdet * (-s * dr + c * dc);
+  const camera::taylor::Affine<double> affine{intr[0], intr[1], intr[2], intr[3], intr[3]};
+  double u = 0.0, v = 0.0;
+  camera::taylor::pixel_to_sensor(affine, px.x(), px.y(), u, v);
   return std::hypot(u, v) / radius_scale;
 }
 
 // Projects a point in the camera frame (x right, y down, z forward; any unit) to a pixel
 // (x = column, y = row). rho_start: normalised radius to start the root search from.
-// Newton's method runs in double precision; one last Newton step in T from the converged root
-// carries the exact derivatives (implicit function theorem).
 template <typename T>
 bool project_point(const T* intr, double radius_scale, const T* p, double rho_start, T* pixel) {
-  const T U = p[1], V = p[0], W = -p[2];
-  const T norm = ceres::sqrt(U * U + V * V + T(1e-300));
-  if (!(value_of(norm) > 1e-12)) return false;
-  const T m_scaled = W / norm * radius_scale;
-  const T* b = intr + 4;
-  double bd[kCoefficientSlots];
-  for (int k = 0; k < kCoefficientSlots; ++k) bd[k] = value_of(b[k]);
-  const double md = value_of(m_scaled);
-  double x = std::max(rho_start, 1e-6);
-  bool converged = false;
-  for (int it = 0; it < 40; ++it) {
-    const double g = poly_minus_line(bd, md, x);
-    const double dg = dpoly_minus_line(bd, md, x);
-    if (!(std::abs(dg) > 1e-15)) return false;
-    const double step = g / dg;
-    x -= step;
-    if (!(x > 0.0) || !std::isfinite(x)) return false;
-    if (std::abs(step) < 1e-13 * (1.0 + x)) {
-      converged = true;
-      break;
-    }
-  }
-  if (!converged) return false;
-  const double dg = dpoly_minus_line(bd, md, x);
-  const T rho_n = T(x) - poly_minus_line(b, m_scaled, T(x)) / dg;
-  const T rho = rho_n * radius_scale;
-  const T u = U / norm * rho, v = V / norm * rho;
-  const T& c = intr[2];
-  const T& s = intr[3];
-  pixel[0] = s * u + v + intr[1];      // column
-  pixel[1] = c * u + s * v + intr[0];  // row
-  return true;
+  T pol[kMaxDegree + 1];
+  const double start = std::max(rho_start, 1e-6);
+  return camera::taylor::project(
+      parameters(intr, radius_scale, pol), p, [start](double) { return start; }, kRadiusSearch,
+      pixel[0], pixel[1]);
 }
 
 // Residual of one corner: projected - observed (px), for a board pose block.
@@ -113,7 +84,7 @@ struct CornerResidual {
   template <typename T>
   bool finish(const T* intr, const T* p, T* residual) const {
     double intr_d[kIntrinsicsSize];
-    for (int i = 0; i < kIntrinsicsSize; ++i) intr_d[i] = value_of(intr[i]);
+    for (int i = 0; i < kIntrinsicsSize; ++i) intr_d[i] = camera::taylor::value_of(intr[i]);
     T pixel[2];
     if (!project_point(intr, radius_scale, p, observed_radius(intr_d, radius_scale, observed),
                        pixel))

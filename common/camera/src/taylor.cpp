@@ -7,14 +7,23 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "thermovis/camera/taylor_projection.hpp"
+
 namespace thermovis::camera {
 namespace {
 
 double horner(const std::vector<double>& coeffs, double x) {
-  double value = 0.0;
-  for (auto it = coeffs.rbegin(); it != coeffs.rend(); ++it) value = value * x + *it;
-  return value;
+  return taylor::polynomial(coeffs.data(), static_cast<int>(coeffs.size()), x);
 }
+
+// The model's parameters for the shared projection (coefficients in px).
+taylor::Parameters<double> parameters(const TaylorIntrinsics& in) {
+  return {{in.xc, in.yc, in.c, in.d, in.e}, in.pol.data(), static_cast<int>(in.pol.size()), 1.0};
+}
+
+// Newton's method on the sensor radius, px: from the inverse polynomial's estimate (within
+// about 2e-3 px of the root) a few steps reach 1e-10 px.
+constexpr taylor::RadiusSearch kRadiusSearch{8, 1e-10, 0.0, 0.0};
 
 void require(bool ok, const std::string& what) {
   if (!ok) throw std::invalid_argument("Taylor camera: " + what);
@@ -22,12 +31,12 @@ void require(bool ok, const std::string& what) {
 
 // Farthest image corner from the centre, in sensor radius (px), through the inverse affine.
 double corner_radius(const TaylorIntrinsics& in) {
-  const double invdet = 1.0 / (in.c - in.d * in.e);
+  const taylor::Affine<double> affine{in.xc, in.yc, in.c, in.d, in.e};
   double rmax = 0.0;
   for (double row : {-0.5, in.height - 0.5}) {
     for (double col : {-0.5, in.width - 0.5}) {
-      const double dr = row - in.xc, dc = col - in.yc;
-      const double u = invdet * (dr - in.d * dc), v = invdet * (-in.e * dr + in.c * dc);
+      double u = 0.0, v = 0.0;
+      taylor::pixel_to_sensor(affine, col, row, u, v);
       rmax = std::max(rmax, std::hypot(u, v));
     }
   }
@@ -82,73 +91,44 @@ std::unique_ptr<CameraModel> TaylorCamera::clone() const {
   return std::make_unique<TaylorCamera>(*this);
 }
 
-double TaylorCamera::pol_at(double rho) const { return horner(intr_.pol, rho); }
-
-double TaylorCamera::dpol_at(double rho) const {
-  double value = 0.0;
-  for (size_t i = intr_.pol.size() - 1; i >= 1; --i)
-    value = value * rho + static_cast<double>(i) * intr_.pol[i];
-  return value;
-}
-
 double TaylorCamera::invpol_at(double theta) const { return horner(intr_.invpol, theta); }
 
 double TaylorCamera::field_angle_at_radius(double rho) const {
-  return std::atan2(rho, -pol_at(rho));
+  return std::atan2(rho, -horner(intr_.pol, rho));
 }
 
 double TaylorCamera::radius_at_field_angle(double phi) const {
   // phi = atan2(rho, -pol(rho)) <=> pol(rho) + rho / tan(phi) = 0, i.e. m = -1/tan(phi).
   if (phi <= 0.0) return 0.0;
   const double m = -std::cos(phi) / std::sin(phi);
-  const double theta = std::atan(m);
-  return solve_rho(m, invpol_at(theta));
+  return taylor::solve_radius(intr_.pol.data(), static_cast<int>(intr_.pol.size()), m,
+                              radius_start(m), kRadiusSearch)
+      .x;
 }
 
-double TaylorCamera::solve_rho(double m, double rho0) const {
-  // Root of g(rho) = pol(rho) - m * rho, where m = w / sqrt(u^2 + v^2) of the ray.
-  double rho = std::clamp(rho0, 0.0, rho_max_ * 1.5);
-  for (int i = 0; i < 8; ++i) {
-    const double g = pol_at(rho) - m * rho;
-    const double dg = dpol_at(rho) - m;
-    if (dg == 0.0) break;
-    const double step = g / dg;
-    rho -= step;
-    if (std::abs(step) < 1e-10) break;
-  }
-  return rho;
+double TaylorCamera::radius_start(double m) const {
+  return std::clamp(invpol_at(std::atan(m)), 0.0, rho_max_ * 1.5);
 }
 
 bool TaylorCamera::unproject(const Eigen::Vector2d& pixel, Eigen::Vector3d& ray) const {
   if (!pixel.allFinite()) return false;
-  const double dr = pixel.y() - intr_.xc;  // row offset
-  const double dc = pixel.x() - intr_.yc;  // column offset
-  const double invdet = 1.0 / (intr_.c - intr_.d * intr_.e);
-  const double u = invdet * (dr - intr_.d * dc);
-  const double v = invdet * (-intr_.e * dr + intr_.c * dc);
+  double u = 0.0, v = 0.0;
+  taylor::pixel_to_sensor(parameters(intr_).affine, pixel.x(), pixel.y(), u, v);
   const double rho = std::hypot(u, v);
   if (rho > rho_max_) return false;
-  const double w = pol_at(rho);
+  const double w = horner(intr_.pol, rho);
   ray = Eigen::Vector3d(v, u, -w).normalized();
   return true;
 }
 
 bool TaylorCamera::project(const Eigen::Vector3d& ray, Eigen::Vector2d& pixel) const {
   if (!ray.allFinite()) return false;
-  const double U = ray.y(), V = ray.x(), W = -ray.z();
-  const double norm = std::hypot(U, V);
-  const double len = std::sqrt(norm * norm + W * W);
-  if (len == 0.0) return false;
+  const double norm = std::hypot(ray.y(), ray.x()), W = -ray.z();
+  if (std::sqrt(norm * norm + W * W) == 0.0) return false;
   if (std::atan2(norm, -W) > max_angle_ + 1e-9) return false;
-  double u = 0.0, v = 0.0;
-  if (norm > 1e-12 * len) {
-    const double m = W / norm;
-    const double rho = solve_rho(m, invpol_at(std::atan(m)));
-    u = U / norm * rho;
-    v = V / norm * rho;
-  }
-  pixel = Eigen::Vector2d(intr_.e * u + v + intr_.yc, intr_.c * u + intr_.d * v + intr_.xc);
-  return true;
+  return taylor::project(
+      parameters(intr_), ray.data(), [this](double m) { return radius_start(m); }, kRadiusSearch,
+      pixel.x(), pixel.y());
 }
 
 bool TaylorCamera::project_invpol(const Eigen::Vector3d& ray, Eigen::Vector2d& pixel) const {
@@ -162,7 +142,7 @@ bool TaylorCamera::project_invpol(const Eigen::Vector3d& ray, Eigen::Vector2d& p
     u = U / norm * rho;
     v = V / norm * rho;
   }
-  pixel = Eigen::Vector2d(intr_.e * u + v + intr_.yc, intr_.c * u + intr_.d * v + intr_.xc);
+  taylor::sensor_to_pixel(parameters(intr_).affine, u, v, pixel.x(), pixel.y());
   return true;
 }
 

@@ -11,7 +11,8 @@
 // world2cam uses the inverse polynomial rho = sum_i invpol[i] * theta^i (lowest order first,
 // theta = atan(w / sqrt(u^2 + v^2)), negative for forward rays) as OCamCalib does, then
 // refines rho by Newton steps on the forward polynomial, so project() is the exact inverse of
-// unproject(); project_invpol() gives OCamCalib's plain polynomial result.
+// unproject(); project_invpol() gives OCamCalib's plain polynomial result. The projection's
+// math is taylor_projection.hpp's, shared with the calibration.
 #include <vector>
 
 #include "thermovis/camera/camera_model.hpp"
@@ -70,10 +71,10 @@ class TaylorCamera final : public CameraModel {
                                                      int max_degree = 24);
 
  private:
-  double pol_at(double rho) const;
-  double dpol_at(double rho) const;
   double invpol_at(double theta) const;
-  double solve_rho(double m, double rho0) const;  // root of pol(rho) - m*rho near rho0
+  // Where the radius search for a ray with m = w / sqrt(u^2 + v^2) starts: the inverse
+  // polynomial's estimate, px.
+  double radius_start(double m) const;
 
   TaylorIntrinsics intr_;
   double rho_max_ = 0.0;    // fitted / valid sensor radius, px
