@@ -24,6 +24,20 @@ std::string read(const fs::path& path) {
   return s.str();
 }
 
+// One row of `thermovis bench ranging --json` for 2 trials; the statistics as JSON text
+// ("null" where nothing was ranged).
+std::string ranging_row(int distance_m, const std::string& mode, int ranged,
+                        const std::string& mean_abs, const std::string& mean_signed,
+                        const std::string& max_abs, const std::string& within_sigma,
+                        const std::string& sigma, double paper) {
+  return "{\"distance_m\":" + std::to_string(distance_m) + ",\"mode\":\"" + mode +
+         "\",\"trials\":2,\"ranged\":" + std::to_string(ranged) +
+         ",\"failures\":" + std::to_string(2 - ranged) + ",\"mean_abs_error_m\":" + mean_abs +
+         ",\"mean_signed_error_m\":" + mean_signed + ",\"max_abs_error_m\":" + max_abs +
+         ",\"within_1_sigma\":" + within_sigma + ",\"mean_sigma_m\":" + sigma +
+         ",\"eq2_error_at_0.1px_m\":0.01,\"paper_abs_error_m\":" + std::to_string(paper) + "}\n";
+}
+
 // A runs folder with a ranging run (two distances, two modes, one distance never ranged in
 // infrared), a matching run and two calibration sets, as `thermovis report` writes it.
 fs::path canned_runs(const std::string& name) {
@@ -41,27 +55,11 @@ fs::path canned_runs(const std::string& name) {
       {"kind": "calibration", "label": "ladybug", "file": "4-calibration.jsonl",
        "command": "thermovis calibrate --images D/calib/ocamcalib_ladybug --json"}]})");
   write(dir / "1-ranging.jsonl",
-        "trial 1/2 done (3 s)\n"
-        R"({"distance_m":5.0,"mode":"visible","trials":2,"ranged":2,"failures":0,)"
-        R"("mean_abs_error_m":0.0214,"mean_signed_error_m":-0.0104,"max_abs_error_m":0.0391,)"
-        R"("within_1_sigma":0.5,"mean_sigma_m":0.0183,"eq2_error_at_0.1px_m":0.009,)"
-        R"("paper_abs_error_m":0.18})"
-        "\n"
-        R"({"distance_m":5.0,"mode":"infrared","trials":2,"ranged":1,"failures":1,)"
-        R"("mean_abs_error_m":0.03,"mean_signed_error_m":0.03,"max_abs_error_m":0.03,)"
-        R"("within_1_sigma":1.0,"mean_sigma_m":0.04,"eq2_error_at_0.1px_m":0.02,)"
-        R"("paper_abs_error_m":0.05})"
-        "\n"
-        R"({"distance_m":60.0,"mode":"visible","trials":2,"ranged":1,"failures":1,)"
-        R"("mean_abs_error_m":0.36,"mean_signed_error_m":-0.36,"max_abs_error_m":0.36,)"
-        R"("within_1_sigma":0.0,"mean_sigma_m":0.5,"eq2_error_at_0.1px_m":1.3,)"
-        R"("paper_abs_error_m":3.24})"
-        "\n"
-        R"({"distance_m":60.0,"mode":"infrared","trials":2,"ranged":0,"failures":2,)"
-        R"("mean_abs_error_m":null,"mean_signed_error_m":null,"max_abs_error_m":null,)"
-        R"("within_1_sigma":null,"mean_sigma_m":null,"eq2_error_at_0.1px_m":2.6,)"
-        R"("paper_abs_error_m":2.55})"
-        "\n");
+        "trial 1/2 done (3 s)\n" +
+            ranging_row(5, "visible", 2, "0.0214", "-0.0104", "0.0391", "0.5", "0.0183", 0.18) +
+            ranging_row(5, "infrared", 1, "0.03", "0.03", "0.03", "1.0", "0.04", 0.05) +
+            ranging_row(60, "visible", 1, "0.36", "-0.36", "0.36", "0.0", "0.5", 3.24) +
+            ranging_row(60, "infrared", 0, "null", "null", "null", "null", "null", 2.55));
   write(dir / "2-match.jsonl",
         R"({"method":"ncc","subpixel":true,"scenes":5,"matches_per_pair":1210.4,)"
         R"("within_1px":0.9163,"within_half_px":0.8531,"mean_abs_error_px_inliers":0.2468,)"
