@@ -81,13 +81,15 @@ std::vector<RecordableTopic> parse_topic_list(const std::string& list,
 }
 
 std::string schema_text(const RecordableTopic& topic) {
-  return record::flatten_idl(topic.idl_file, [](const std::string& file) {
-    const auto& files = idl_files();
-    const auto it = files.find(file);
-    if (it == files.end())
-      throw std::runtime_error("IDL file " + file + " is not built into this executable");
-    return it->second;
-  });
+  // Literal constants and bounds: Foxglove's IDL parser takes no expressions there.
+  return record::fold_constant_expressions(
+      record::flatten_idl(topic.idl_file, [](const std::string& file) {
+        const auto& files = idl_files();
+        const auto it = files.find(file);
+        if (it == files.end())
+          throw std::runtime_error("IDL file " + file + " is not built into this executable");
+        return it->second;
+      }));
 }
 
 namespace {

@@ -33,7 +33,8 @@ std::vector<RecordableTopic> parse_topic_list(const std::string& list,
                                               const std::vector<std::string>& defaults);
 
 // The self-contained IDL text of a topic's type (MCAP schema encoding "omgidl"): its IDL file with
-// the files it includes inlined, as built into this executable.
+// the files it includes inlined, as built into this executable, with its constant expressions
+// folded to literals (record::fold_constant_expressions).
 std::string schema_text(const RecordableTopic& topic);
 
 // One sample as recorded: its CDR payload and what DDS says about it.
