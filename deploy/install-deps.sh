@@ -14,6 +14,7 @@ packages=(
   clang libclang-rt-14-dev
   libcpp-httplib-dev chromium chromium-driver
   libzstd-dev zlib1g-dev
+  nodejs npm  # foxglove_client_test: Foxglove's own decoders (npm packages) read a recording
   openssl
 )
 

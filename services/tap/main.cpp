@@ -47,6 +47,7 @@ int main(int argc, char** argv) {
       if (from.empty()) throw std::runtime_error("--publish needs --from FILE (or - for stdin)");
       publish.topic = publish_topic;
       publish.domain = options.domain;
+      if (from != "-") publish.source = from;
       std::ifstream file;
       if (from != "-") {
         file.open(from);

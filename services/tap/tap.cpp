@@ -16,6 +16,7 @@
 
 #include "thermovis/common.h"
 #include "thermovis/health.h"
+#include "thermovis/json/fields.hpp"
 #include "thermovis/perception.h"
 
 namespace thermovis::tap {
@@ -23,6 +24,7 @@ namespace thermovis::tap {
 namespace {
 
 using nlohmann::json;
+namespace tj = thermovis::json;
 
 json to_json(const thermovis_Box2D& box) {
   return {{"x", box.x}, {"y", box.y}, {"width", box.width}, {"height", box.height}};
@@ -170,65 +172,63 @@ struct Entity {
   Entity& operator=(const Entity&) = delete;
 };
 
-// JSON (the format run_tap prints) -> C samples for --publish. Each throws std::invalid_argument
-// naming the field at fault.
-float number_field(const json& j, const char* key) {
-  const auto it = j.find(key);
-  if (it == j.end() || !it->is_number()) {
-    throw std::invalid_argument(std::string("'") + key + "' missing or not a number");
-  }
-  return it->get<float>();
+// JSON (the format run_tap prints) -> C samples for --publish. Each throws
+// thermovis::json::JsonInputError naming the entry (`where`) and the field at fault.
+thermovis_Box2D box_from_json(const json& j, const std::string& where) {
+  tj::require_object(j, where);
+  return {tj::field<float>(j, "x", where), tj::field<float>(j, "y", where),
+          tj::field<float>(j, "width", where), tj::field<float>(j, "height", where)};
 }
 
-thermovis_Box2D box_from_json(const json& j) {
-  if (!j.is_object()) throw std::invalid_argument("'box' is not an object");
-  return {number_field(j, "x"), number_field(j, "y"), number_field(j, "width"),
-          number_field(j, "height")};
-}
-
-void stamps_from_json(const json& j, thermovis_PipelineStamps& out) {
+void stamps_from_json(const json& j, thermovis_PipelineStamps& out, const std::string& where) {
   std::memset(&out, 0, sizeof out);  // every entry STAGE_NONE
   if (j.is_null()) return;
   if (!j.is_array() || j.size() > thermovis_MAX_STAGE_STAMPS) {
-    throw std::invalid_argument("'stamps' is not an array of at most " +
-                                std::to_string(thermovis_MAX_STAGE_STAMPS) + " entries");
+    throw tj::JsonInputError(where + ": field 'stamps' must be an array of at most " +
+                             std::to_string(thermovis_MAX_STAGE_STAMPS) + " entries");
   }
   for (std::size_t i = 0; i < j.size(); ++i) {
-    out.stamps[i].stage = j[i].at("stage").get<std::uint32_t>();
-    out.stamps[i].duration_us = j[i].at("duration_us").get<std::uint32_t>();
-    out.stamps[i].end_ns = j[i].at("end_ns").get<std::int64_t>();
+    const std::string at = where + " stamps " + std::to_string(i);
+    out.stamps[i].stage = tj::field<std::uint32_t>(j[i], "stage", at);
+    out.stamps[i].duration_us = tj::field<std::uint32_t>(j[i], "duration_us", at);
+    out.stamps[i].end_ns = tj::field<std::int64_t>(j[i], "end_ns", at);
   }
 }
 
-// A DetectionArray whose detections live in `storage` (the sample does not own them).
+// A DetectionArray whose detections live in `storage` (the sample does not own them). `where`
+// names the input line, e.g. "detections.jsonl line 3".
 thermovis_DetectionArray detection_array_from_json(const json& j,
-                                                   std::vector<thermovis_Detection>& storage) {
+                                                   std::vector<thermovis_Detection>& storage,
+                                                   const std::string& where) {
   thermovis_DetectionArray out{};
-  out.frame_seq = j.at("frame_seq").get<std::uint64_t>();
-  out.capture_time_ns = j.at("capture_time_ns").get<std::int64_t>();
+  out.frame_seq = tj::field<std::uint64_t>(j, "frame_seq", where);
+  out.capture_time_ns = tj::field<std::int64_t>(j, "capture_time_ns", where);
+  if (!j.contains("detections")) throw tj::JsonInputError(where + ": field 'detections' missing");
   const json& detections = j.at("detections");
   if (!detections.is_array() || detections.size() > thermovis_MAX_TARGETS) {
-    throw std::invalid_argument("'detections' is not an array of at most " +
-                                std::to_string(thermovis_MAX_TARGETS) + " entries");
+    throw tj::JsonInputError(where + ": field 'detections' must be an array of at most " +
+                             std::to_string(thermovis_MAX_TARGETS) + " entries");
   }
   storage.assign(detections.size(), thermovis_Detection{});
   for (std::size_t i = 0; i < detections.size(); ++i) {
     const json& d = detections[i];
+    const std::string at = where + " detection " + std::to_string(i);
     thermovis_Detection& t = storage[i];
-    t.target_id = d.at("target_id").get<std::uint32_t>();
-    const std::string label = d.at("label").get<std::string>();
+    t.target_id = tj::field<std::uint32_t>(d, "target_id", at);
+    const std::string label = tj::field<std::string>(d, "label", at);
     if (label.size() > thermovis_MAX_LABEL_LENGTH) {
-      throw std::invalid_argument("detection " + std::to_string(i) + ": label '" + label +
-                                  "' longer than " + std::to_string(thermovis_MAX_LABEL_LENGTH));
+      throw tj::JsonInputError(at + ": field 'label' ('" + label + "') longer than " +
+                               std::to_string(thermovis_MAX_LABEL_LENGTH) + " characters");
     }
     std::memcpy(t.label, label.c_str(), label.size() + 1);
-    t.score = number_field(d, "score");
-    t.box = box_from_json(d.at("box"));
+    t.score = tj::field<float>(d, "score", at);
+    if (!d.contains("box")) throw tj::JsonInputError(at + ": field 'box' missing");
+    t.box = box_from_json(d.at("box"), at + " box");
   }
   out.detections._buffer = storage.data();
   out.detections._length = out.detections._maximum = static_cast<std::uint32_t>(storage.size());
   out.detections._release = false;
-  stamps_from_json(j.contains("stamps") ? j["stamps"] : json(), out.stamps);
+  stamps_from_json(j.contains("stamps") ? j["stamps"] : json(), out.stamps, where);
   return out;
 }
 
@@ -277,12 +277,17 @@ std::uint64_t run_publisher(const PublishOptions& options, const std::atomic<boo
     ++line_number;
     if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
     thermovis_DetectionArray sample;
+    const std::string where = options.source + " line " + std::to_string(line_number);
     try {
-      sample = detection_array_from_json(json::parse(line), storage);
-    } catch (const std::exception& e) {
-      log << "thermovis-tap: line " << line_number << ": not a DetectionArray: " << e.what()
-          << " (skipped)\n"
-          << std::flush;
+      json j;
+      try {
+        j = json::parse(line);
+      } catch (const json::exception& e) {
+        throw tj::JsonInputError(where + ": not JSON (" + e.what() + ")");
+      }
+      sample = detection_array_from_json(j, storage, where);
+    } catch (const tj::JsonInputError& e) {
+      log << "thermovis-tap: not a DetectionArray: " << e.what() << " (skipped)\n" << std::flush;
       continue;
     }
     const dds_return_t rc = dds_write(writer, &sample);

@@ -25,6 +25,7 @@ struct PublishOptions {
   std::uint32_t domain = 0;
   std::uint32_t wait_readers = 1;  // readers to wait for before the first sample (0: none)
   double wait_s = 30.0;            // how long to wait for them
+  std::string source = "stdin";    // what the JSON lines are read from, for errors (a file name)
 };
 
 // Topics --publish can write (their types' JSON is the one run_tap prints).
@@ -32,9 +33,9 @@ std::vector<std::string> publishable_topics();
 
 // Publishes one sample per JSON line read from `in` (RELIABLE, like the pipeline's writers)
 // until the end of `in` or `stop`, then waits until the readers have acknowledged every sample.
-// A line that is not a valid sample is reported on `log` with its line number and the field at
-// fault, and skipped. Returns the number of samples published. Throws std::runtime_error for a
-// topic that cannot be published, no reader within wait_s, or a DDS error.
+// A line that is not a valid sample is reported on `log` with the source, its line number, the
+// entry and the field at fault, and skipped. Returns the number of samples published. Throws
+// std::runtime_error for a topic that cannot be published, no reader within wait_s, or a DDS error.
 std::uint64_t run_publisher(const PublishOptions& options, const std::atomic<bool>& stop,
                             std::istream& in, std::ostream& log);
 

@@ -48,6 +48,20 @@ fu::ColourMode parse_colour(const std::string& name) {
   return *c;
 }
 
+// The infrared image as fusion takes it. Raw detector counts (CV_16UC1, 14- or 16-bit: what a
+// thermal camera and `thermovis scene render` give) always go through the pipeline's gain
+// control (rectify-fuse's default AgcParams); 8-bit infrared only with `agc` (--enhance). An
+// image stored as three equal channels is reduced to one first.
+cv::Mat infrared_for_fusion(cv::Mat ir, bool agc) {
+  if (ir.channels() == 3 && (agc || ir.depth() == CV_16U)) {
+    cv::Mat plane;
+    cv::extractChannel(ir, plane, 0);
+    ir = plane;
+  }
+  if (agc || ir.depth() == CV_16U) ir = thermovis::enhance::InfraredAgc().process(ir);
+  return ir;
+}
+
 double ms_since(Clock::time_point start) {
   return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
 }
@@ -67,15 +81,8 @@ int run_fuse(const FuseOptions& opt) {
   cv::Mat ir = read_image(opt.ir, "infrared");
   cv::Mat vis = read_image(opt.vis, "visible");
   const auto start = Clock::now();
-  if (opt.enhance) {
-    if (ir.channels() == 3) {  // stored as RGB with equal channels
-      cv::Mat plane;
-      cv::extractChannel(ir, plane, 0);
-      ir = plane;
-    }
-    ir = thermovis::enhance::InfraredAgc().process(ir);
-    vis = thermovis::enhance::enhance_visible(vis);
-  }
+  ir = infrared_for_fusion(ir, opt.enhance);
+  if (opt.enhance) vis = thermovis::enhance::enhance_visible(vis);
   const cv::Mat fused = fu::fuse(ir, vis, options);
   const double ms = ms_since(start);
   if (!cv::imwrite(opt.out, fused)) throw std::runtime_error("cannot write " + opt.out);
@@ -144,8 +151,9 @@ MethodResult evaluate(const std::vector<Pair>& pairs, const std::string& method,
   MethodResult result{method, {}, 0.0};
   double total_ms = 0;
   for (const auto& pair : pairs) {
-    const cv::Mat ir = read_image(pair.ir, "infrared");
     const cv::Mat vis = read_image(pair.vis, "visible");
+    // Raw counts are scored against their gain-controlled 8-bit view, the image that was fused.
+    const cv::Mat ir = infrared_for_fusion(read_image(pair.ir, "infrared"), false);
     const auto start = Clock::now();
     const cv::Mat fused = fu::fuse(ir, vis, options);
     total_ms += ms_since(start);
@@ -238,7 +246,10 @@ int run_fuse_eval(const EvalOptions& opt) {
 THERMOVIS_COMMAND("fuse", "Fuse one registered infrared/visible pair into one image",
                   [](CLI::App& app) -> thermovis::cli::Runner {
                     auto opt = std::make_shared<FuseOptions>();
-                    app.add_option("--ir", opt->ir, "infrared image")->required();
+                    app.add_option("--ir", opt->ir,
+                                   "infrared image: 8-bit, or raw 14/16-bit counts (16-bit PNG "
+                                   "or TIFF), which get the pipeline's gain control")
+                        ->required();
                     app.add_option("--vis", opt->vis, "visible image (same size)")->required();
                     app.add_option("--out", opt->out, "fused image to write")->required();
                     app.add_option("--method", opt->method, "vsmwls | vsmwls-paper | fast")

@@ -15,6 +15,7 @@
 #include <stdexcept>
 
 #include "command.hpp"
+#include "thermovis/json/fields.hpp"
 #include "thermovis/pipeline/capture_pipeline.hpp"
 #include "thermovis/runtime/grid_options.hpp"
 #include "thermovis/runtime/rig_io.hpp"
@@ -56,12 +57,17 @@ struct BoxRequest {
   std::optional<double> truth_distance_m;
 };
 
-std::array<double, 4> box4(const nlohmann::json& j, const std::string& where) {
+std::array<double, 4> box4(const nlohmann::json& entry, const std::string& name,
+                           const std::string& where) {
+  const nlohmann::json& j = entry.at(name);
   if (!j.is_array() || j.size() != 4)
-    throw std::runtime_error(where + ": a box is [x_min, y_min, x_max, y_max]");
+    throw std::runtime_error(where + ": field '" + name +
+                             "' must be a box [x_min, y_min, x_max, y_max], got " + j.dump());
   std::array<double, 4> b{};
   for (size_t i = 0; i < 4; ++i) {
-    if (!j[i].is_number()) throw std::runtime_error(where + ": box values must be numbers");
+    if (!j[i].is_number())
+      throw std::runtime_error(where + ": field '" + name + "' value " + std::to_string(i) +
+                               " must be a number, got " + j[i].dump());
     b[i] = j[i].get<double>();
   }
   return b;
@@ -72,6 +78,7 @@ std::array<double, 4> box4(const nlohmann::json& j, const std::string& where) {
 // rectified grid of the mode, or "boxes" {"visible_left": [...], "infrared_left": [...]} on raw
 // images; "distance_m" (truth) is used to report the error.
 std::vector<BoxRequest> read_boxes(const fs::path& path) {
+  namespace tj = thermovis::json;
   std::ifstream in(path);
   if (!in) throw std::runtime_error("cannot open boxes file " + path.string());
   nlohmann::json j;
@@ -87,21 +94,22 @@ std::vector<BoxRequest> read_boxes(const fs::path& path) {
     const auto& t = list[i];
     const std::string where = path.string() + " target " + std::to_string(i);
     BoxRequest b;
-    b.id = t.value("id", "target" + std::to_string(i));
-    b.cls = t.value("class", "person");
-    if (t.contains("distance_m") && t["distance_m"].is_number())
-      b.truth_distance_m = t["distance_m"].get<double>();
+    b.id = tj::field_or<std::string>(t, "id", where, "target" + std::to_string(i));
+    b.cls = tj::field_or<std::string>(t, "class", where, "person");
+    if (t.contains("distance_m") && !t["distance_m"].is_null())
+      b.truth_distance_m = tj::field<double>(t, "distance_m", where);
     if (t.contains("rectified_box")) {
-      const auto r = box4(t["rectified_box"], where);
+      const auto r = box4(t, "rectified_box", where);
       b.rectified = cv::Rect(
           cv::Point(static_cast<int>(std::floor(r[0])), static_cast<int>(std::floor(r[1]))),
           cv::Point(static_cast<int>(std::ceil(r[2])) + 1, static_cast<int>(std::ceil(r[3])) + 1));
     } else if (t.contains("boxes")) {
       const auto& boxes = t["boxes"];
+      tj::require_object(boxes, where + " field 'boxes'");
       if (boxes.contains("visible_left") && !boxes["visible_left"].is_null())
-        b.raw_visible = box4(boxes["visible_left"], where + " visible_left");
+        b.raw_visible = box4(boxes, "visible_left", where + " boxes");
       if (boxes.contains("infrared_left") && !boxes["infrared_left"].is_null())
-        b.raw_infrared = box4(boxes["infrared_left"], where + " infrared_left");
+        b.raw_infrared = box4(boxes, "infrared_left", where + " boxes");
     } else {
       throw std::runtime_error(where + ": needs 'rectified_box' or 'boxes'");
     }

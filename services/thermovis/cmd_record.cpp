@@ -16,7 +16,9 @@
 #include "command.hpp"
 #include "recording.hpp"
 #include "thermovis/node/service.hpp"
+#include "thermovis/record/foxglove.hpp"
 #include "thermovis/record/mcap.hpp"
+#include "thermovis/runtime/rig_io.hpp"
 #include "thermovis/transport/clock.hpp"
 #include "thermovis/transport/topics.hpp"
 
@@ -36,6 +38,9 @@ struct Options {
   double buffer_mb = 1024.0;
   double wait_s = 10.0;
   bool json = false;
+  std::string images = tv::transport::topics::kFused;  // frame topics recorded as pictures
+  tv::cli::ImageViewOptions image;
+  bool scene = true;
 };
 
 const std::vector<std::string>& default_topics() {
@@ -56,20 +61,20 @@ struct TopicCount {
 class SampleQueue {
  public:
   struct Item {
-    std::uint16_t channel;
+    std::size_t source;  // index of the tap it came from
     std::uint64_t log_ns;
     TappedSample sample;
   };
   explicit SampleQueue(std::size_t max_bytes) : max_bytes_(max_bytes) {}
 
   // False when the sample does not fit (dropped).
-  bool push(std::uint16_t channel, TappedSample&& sample) {
+  bool push(std::size_t source, TappedSample&& sample) {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (bytes_ + sample.cdr.size() > max_bytes_ && !items_.empty()) return false;
-    bytes_ += sample.cdr.size();
+    if (bytes_ + sample.data.size() > max_bytes_ && !items_.empty()) return false;
+    bytes_ += sample.data.size();
     // The log time is taken under the lock: the file's messages are in log-time order.
     items_.push_back(
-        {channel, static_cast<std::uint64_t>(tv::transport::now_ns()), std::move(sample)});
+        {source, static_cast<std::uint64_t>(tv::transport::now_ns()), std::move(sample)});
     ready_.notify_one();
     return true;
   }
@@ -78,7 +83,7 @@ class SampleQueue {
     if (!ready_.wait_for(lock, timeout, [&] { return !items_.empty(); })) return std::nullopt;
     Item item = std::move(items_.front());
     items_.pop_front();
-    bytes_ -= item.sample.cdr.size();
+    bytes_ -= item.sample.data.size();
     return item;
   }
 
@@ -101,54 +106,91 @@ int run_record(const Options& opt) {
   tv::record::McapWriter writer(opt.out, wo);
   auto participant = tv::node::make_participant(opt.common);
 
+  // Every source of messages: the DDS topics as CDR, then Foxglove's views of them as JSON.
+  struct Source {
+    std::string name;  // the channel's topic
+    std::uint16_t channel;
+    std::unique_ptr<tv::cli::TopicTap> tap;
+  };
+  std::vector<Source> sources;
   std::map<std::string, std::uint16_t> schema_of_type;
-  std::vector<std::uint16_t> channels;
-  std::vector<std::unique_ptr<tv::cli::TopicTap>> taps;
+  const auto schema_id = [&](const std::string& name, const std::string& encoding,
+                             const std::function<std::string()>& text) {
+    auto schema = schema_of_type.find(name);
+    if (schema == schema_of_type.end())
+      schema = schema_of_type.emplace(name, writer.add_schema(name, encoding, text())).first;
+    return schema->second;
+  };
   for (const RecordableTopic& topic : topics) {
-    auto schema = schema_of_type.find(topic.type_name);
-    if (schema == schema_of_type.end()) {
-      schema = schema_of_type
-                   .emplace(topic.type_name, writer.add_schema(topic.type_name, "omgidl",
-                                                               tv::cli::schema_text(topic)))
-                   .first;
-    }
-    channels.push_back(writer.add_channel(schema->second, topic.topic, "cdr"));
-    taps.push_back(tv::cli::make_tap(*participant, topic));
+    const auto schema =
+        schema_id(topic.type_name, "omgidl", [&] { return tv::cli::schema_text(topic); });
+    sources.push_back({topic.topic, writer.add_channel(schema, topic.topic, "cdr"),
+                       tv::cli::make_tap(*participant, topic)});
+  }
+  const auto& image_schema = tv::record::compressed_image_schema();
+  for (const RecordableTopic& topic : opt.images == "none"
+                                          ? std::vector<RecordableTopic>{}
+                                          : tv::cli::parse_topic_list(opt.images, {})) {
+    const auto schema =
+        schema_id(image_schema.name, "jsonschema", [&] { return image_schema.json_schema; });
+    const std::string name = tv::cli::image_view_channel(topic);
+    sources.push_back({name, writer.add_channel(schema, name, "json"),
+                       tv::cli::make_image_view_tap(*participant, topic, opt.image)});
+  }
+  if (opt.scene) {
+    const auto& scene_schema = tv::record::scene_update_schema();
+    const auto schema =
+        schema_id(scene_schema.name, "jsonschema", [&] { return scene_schema.json_schema; });
+    sources.push_back({tv::cli::kSceneChannel,
+                       writer.add_channel(schema, tv::cli::kSceneChannel, "json"),
+                       tv::cli::make_scene_view_tap(*participant)});
+    // The rig's cameras, once at the start: where the scene's "visible.left" frame and the
+    // images' camera frames are.
+    const auto& transforms_schema = tv::record::frame_transforms_schema();
+    const auto channel =
+        writer.add_channel(schema_id(transforms_schema.name, "jsonschema",
+                                     [&] { return transforms_schema.json_schema; }),
+                           tv::cli::kTransformsChannel, "json");
+    const std::string json = tv::record::frame_transforms_json(
+        tv::transport::now_ns(),
+        tv::cli::rig_transforms(tv::runtime::load_rig_or_default(opt.common.rig)));
+    const auto now = static_cast<std::uint64_t>(tv::transport::now_ns());
+    writer.write(channel, 0, now, now, json.data(), json.size());
   }
 
   // The writers first: --seconds counts from when every topic has one (on a loaded machine
   // discovery can take seconds), so a timed recording is not spent waiting for them.
   const auto wait_until = std::chrono::steady_clock::now() +
                           std::chrono::milliseconds(static_cast<std::int64_t>(opt.wait_s * 1000));
-  for (std::size_t i = 0; i < taps.size(); ++i) {
+  for (const Source& source : sources) {
     const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
         wait_until - std::chrono::steady_clock::now());
-    if (!taps[i]->wait_for_writers(std::max(left, std::chrono::milliseconds(0))) &&
+    if (!source.tap->wait_for_writers(std::max(left, std::chrono::milliseconds(0))) &&
         !tv::node::stop_requested())
-      std::cerr << "thermovis record: no writer on " << topics[i].topic << " after " << opt.wait_s
+      std::cerr << "thermovis record: no writer for " << source.name << " after " << opt.wait_s
                 << " s; recording anyway" << std::endl;
   }
 
   SampleQueue queue(static_cast<std::size_t>(opt.buffer_mb * 1024 * 1024));
-  std::vector<TopicCount> counts(topics.size());
+  std::vector<TopicCount> counts(sources.size());
   std::mutex counts_mutex;
   std::atomic<bool> stop_taps{false};
   std::vector<std::thread> threads;
-  for (std::size_t i = 0; i < taps.size(); ++i) {
+  for (std::size_t i = 0; i < sources.size(); ++i) {
     threads.emplace_back([&, i] {
       const auto sink = [&](TappedSample&& sample) {
         const std::uint64_t missed = sample.missed_before;
-        const bool queued = queue.push(channels[i], std::move(sample));
+        const bool queued = queue.push(i, std::move(sample));
         std::lock_guard<std::mutex> lock(counts_mutex);
         counts[i].missed += missed;
         if (!queued) ++counts[i].dropped;
       };
-      while (!stop_taps) taps[i]->poll(std::chrono::milliseconds(100), sink);
+      while (!stop_taps) sources[i].tap->poll(std::chrono::milliseconds(100), sink);
     });
   }
   const bool json = opt.json;
   if (!json) {
-    std::cout << "thermovis record: " << topics.size() << " topics on DDS domain "
+    std::cout << "thermovis record: " << sources.size() << " channels from DDS domain "
               << opt.common.domain << " into " << opt.out.string() << " (Ctrl-C stops)"
               << std::endl;
   }
@@ -159,12 +201,13 @@ int run_record(const Options& opt) {
   std::uint64_t payload_bytes = 0;
   const auto write = [&](SampleQueue::Item& item) {
     const auto& s = item.sample;
-    writer.write(item.channel, static_cast<std::uint32_t>(s.writer_sequence), item.log_ns,
-                 static_cast<std::uint64_t>(s.publish_ns), s.cdr.data(), s.cdr.size());
-    payload_bytes += s.cdr.size();
+    writer.write(sources[item.source].channel, static_cast<std::uint32_t>(s.writer_sequence),
+                 item.log_ns, static_cast<std::uint64_t>(s.publish_ns), s.data.data(),
+                 s.data.size());
+    payload_bytes += s.data.size();
     std::lock_guard<std::mutex> lock(counts_mutex);
-    ++counts[item.channel].recorded;
-    counts[item.channel].bytes += s.cdr.size();
+    ++counts[item.source].recorded;
+    counts[item.source].bytes += s.data.size();
   };
   while (!tv::node::stop_requested() && (opt.seconds <= 0 || elapsed() < opt.seconds)) {
     if (auto item = queue.pop(std::chrono::milliseconds(100))) write(*item);
@@ -178,8 +221,8 @@ int run_record(const Options& opt) {
   const double file_mb = static_cast<double>(std::filesystem::file_size(opt.out)) / 1e6;
   nlohmann::json per_topic = nlohmann::json::object();
   std::uint64_t missed = 0, dropped = 0;
-  for (std::size_t i = 0; i < topics.size(); ++i) {
-    per_topic[topics[i].topic] = {{"recorded", counts[i].recorded},
+  for (std::size_t i = 0; i < sources.size(); ++i) {
+    per_topic[sources[i].name] = {{"recorded", counts[i].recorded},
                                   {"missed", counts[i].missed},
                                   {"dropped", counts[i].dropped},
                                   {"mb", static_cast<double>(counts[i].bytes) / 1e6}};
@@ -203,8 +246,8 @@ int run_record(const Options& opt) {
               << " messages in " << seconds << " s: " << summary["payload_mb"].get<double>()
               << " MB of samples (" << summary["record_mb_per_s"].get<double>() << " MB/s), file "
               << file_mb << " MB\n";
-    for (std::size_t i = 0; i < topics.size(); ++i) {
-      std::cout << "  " << std::left << std::setw(30) << topics[i].topic << std::right
+    for (std::size_t i = 0; i < sources.size(); ++i) {
+      std::cout << "  " << std::left << std::setw(34) << sources[i].name << std::right
                 << std::setw(8) << counts[i].recorded << " recorded" << std::setw(8)
                 << counts[i].missed << " missed" << std::setw(8) << counts[i].dropped
                 << " dropped\n";
@@ -249,6 +292,21 @@ THERMOVIS_COMMAND(
                      "wait this long for a writer on every topic before recording starts, s")
           ->capture_default_str()
           ->check(CLI::NonNegativeNumber);
+      app.add_option("--images", opt->images,
+                     "comma-separated frame topics also recorded as pictures Foxglove shows "
+                     "(foxglove.CompressedImage of the left eye on <topic>/left/compressed: JPEG, "
+                     "or lossless 16-bit PNG for raw infrared), or none")
+          ->capture_default_str();
+      app.add_option("--image-rate", opt->image.rate_hz,
+                     "pictures a second per --images topic, at most (by capture time)")
+          ->capture_default_str()
+          ->check(CLI::PositiveNumber);
+      app.add_option("--jpeg-quality", opt->image.jpeg_quality, "JPEG quality of the pictures")
+          ->capture_default_str()
+          ->check(CLI::Range(1, 100));
+      app.add_flag("!--no-scene", opt->scene,
+                   "no foxglove.SceneUpdate of the ranges (thermovis/scene) and no "
+                   "foxglove.FrameTransforms of the rig's cameras (thermovis/transforms)");
       app.add_flag("--json", opt->json, "print the summary as one JSON object");
       return [opt] { return run_record(*opt); };
     });

@@ -1,11 +1,15 @@
 #include "recording.hpp"
 
+#include <Eigen/Geometry>
+#include <iomanip>
 #include <map>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
 
 #include "idl_text.hpp"
+#include "thermovis/node/frame_codec.hpp"
+#include "thermovis/record/foxglove.hpp"
 #include "thermovis/record/idl_schema.hpp"
 #include "thermovis/transport/reader.hpp"
 #include "thermovis/transport/topic_types.hpp"
@@ -81,13 +85,15 @@ std::vector<RecordableTopic> parse_topic_list(const std::string& list,
 }
 
 std::string schema_text(const RecordableTopic& topic) {
-  return record::flatten_idl(topic.idl_file, [](const std::string& file) {
-    const auto& files = idl_files();
-    const auto it = files.find(file);
-    if (it == files.end())
-      throw std::runtime_error("IDL file " + file + " is not built into this executable");
-    return it->second;
-  });
+  // Literal constants and bounds: Foxglove's IDL parser takes no expressions there.
+  return record::fold_constant_expressions(
+      record::flatten_idl(topic.idl_file, [](const std::string& file) {
+        const auto& files = idl_files();
+        const auto it = files.find(file);
+        if (it == files.end())
+          throw std::runtime_error("IDL file " + file + " is not built into this executable");
+        return it->second;
+      }));
 }
 
 namespace {
@@ -129,25 +135,26 @@ struct BorrowedPayload {
   BorrowedPayload& operator=(const BorrowedPayload&) = delete;
 };
 
+// What a tap records of one taken sample: its bytes into `out`, or false to skip it.
+template <class T>
+using Encode = std::function<bool(const T& sample, std::vector<std::uint8_t>& out)>;
+
 template <class T>
 class Tap final : public TopicTap {
  public:
-  Tap(transport::Participant& participant, const RecordableTopic& topic)
-      : topic_(topic.topic), reader_(participant, topic.topic, tap_qos(topic)) {}
+  // `encode` empty: the sample's CDR serialized payload.
+  Tap(transport::Participant& participant, const RecordableTopic& topic, Encode<T> encode = {})
+      : topic_(topic.topic),
+        reader_(participant, topic.topic, tap_qos(topic)),
+        encode_(std::move(encode)) {}
 
   std::size_t poll(std::chrono::milliseconds timeout,
                    const std::function<void(TappedSample&&)>& sink) override {
     reader_.wait_for_data(timeout);
     auto samples = reader_.take();
     for (std::size_t i = 0; i < samples.size(); ++i) {
-      T* sample = const_cast<T*>(&samples[i]);  // Fast DDS's serialize takes void*, only reads
       TappedSample out;
-      out.cdr.resize(pubsub_.getSerializedSizeProvider(sample)());
-      BorrowedPayload payload(out.cdr.data(), out.cdr.size());
-      payload.payload.length = 0;
-      if (!pubsub_.serialize(sample, &payload.payload))
-        throw std::runtime_error(topic_ + ": a sample does not serialize");
-      out.cdr.resize(payload.payload.length);
+      if (!(encode_ ? encode_(samples[i], out.data) : serialize(samples[i], out.data))) continue;
       // A frame's data-sharing slot reused by its writer while it was copied: a torn copy, not
       // recorded (the next sample's sequence gap counts it as missed).
       if (!samples.still_valid(i)) continue;
@@ -173,8 +180,19 @@ class Tap final : public TopicTap {
     if (qos.kind == transport::TopicKind::event) qos.depth = 64;  // rides out a slow disk
     return qos;
   }
+  bool serialize(const T& taken, std::vector<std::uint8_t>& out) {
+    T* sample = const_cast<T*>(&taken);  // Fast DDS's serialize takes void*, only reads
+    out.resize(pubsub_.getSerializedSizeProvider(sample)());
+    BorrowedPayload payload(out.data(), out.size());
+    payload.payload.length = 0;
+    if (!pubsub_.serialize(sample, &payload.payload))
+      throw std::runtime_error(topic_ + ": a sample does not serialize");
+    out.resize(payload.payload.length);
+    return true;
+  }
   std::string topic_;
   transport::Reader<T> reader_;
+  Encode<T> encode_;
   typename transport::TypeSupportOf<T>::type pubsub_;
   std::map<eprosima::fastrtps::rtps::GUID_t, std::uint64_t> last_sequence_;
 };
@@ -256,6 +274,95 @@ std::unique_ptr<TopicTap> make_tap(transport::Participant& participant,
     using T = typename decltype(tag)::type;
     return std::make_unique<Tap<T>>(participant, topic);
   });
+}
+
+std::string image_view_channel(const RecordableTopic& frame_topic) {
+  return frame_topic.topic + "/left/compressed";
+}
+
+std::string image_frame_id(const RecordableTopic& frame_topic) {
+  const bool infrared = frame_topic.topic == topics::kInfraredFrames ||
+                        frame_topic.topic == topics::kRectifiedInfrared;
+  return infrared ? "infrared.left" : "visible.left";
+}
+
+std::unique_ptr<TopicTap> make_image_view_tap(transport::Participant& participant,
+                                              const RecordableTopic& frame_topic,
+                                              const ImageViewOptions& options) {
+  if (!frame_topic.frame)
+    throw std::invalid_argument("no images on " + frame_topic.topic + ": not a frame topic");
+  if (!(options.rate_hz > 0))
+    throw std::invalid_argument("image rate must be positive, got " +
+                                std::to_string(options.rate_hz) + " Hz");
+  return with_type_tag(frame_topic.type_name, [&](auto tag) -> std::unique_ptr<TopicTap> {
+    using T = typename decltype(tag)::type;
+    if constexpr (!kIsFrame<T>) {
+      throw std::invalid_argument("no images on " + frame_topic.topic);
+    } else {
+      const auto period_ns = static_cast<std::int64_t>(1e9 / options.rate_hz);
+      const std::string frame_id = image_frame_id(frame_topic);
+      Encode<T> encode = [period_ns, frame_id, quality = options.jpeg_quality,
+                          last = std::optional<std::int64_t>()](
+                             const T& frame, std::vector<std::uint8_t>& out) mutable {
+        const std::int64_t t = frame.capture_time_ns();
+        if (last && t >= *last && t - *last < period_ns) return false;
+        last = t;
+        const std::string json = record::compressed_image_json(
+            t, frame_id, record::encode_image(node::view(frame, node::Eye::left), quality));
+        out.assign(json.begin(), json.end());
+        return true;
+      };
+      return std::make_unique<Tap<T>>(participant, frame_topic, std::move(encode));
+    }
+  });
+}
+
+namespace {
+
+std::vector<record::SceneBox> scene_boxes(const RangeArray& ranges) {
+  std::vector<record::SceneBox> boxes;
+  for (const TargetRange& t : ranges.targets()) {
+    record::SceneBox b;
+    b.id = "target " + std::to_string(t.target_id());
+    std::ostringstream label;
+    label << t.label().to_string() << " " << std::fixed << std::setprecision(1) << t.distance_m()
+          << " m";
+    b.label = label.str();
+    b.centre_m = {t.x_m(), t.y_m(), t.z_m()};
+    // Nominal sizes (width, height, depth; m): a range carries a position, not an extent.
+    b.size_m = t.label().to_string() == "person" ? std::array<double, 3>{0.6, 1.75, 0.6}
+                                                 : std::array<double, 3>{1.0, 1.0, 1.0};
+    boxes.push_back(std::move(b));
+  }
+  return boxes;
+}
+
+}  // namespace
+
+std::unique_ptr<TopicTap> make_scene_view_tap(transport::Participant& participant) {
+  Encode<RangeArray> encode = [](const RangeArray& ranges, std::vector<std::uint8_t>& out) {
+    const std::string json =
+        record::scene_update_json(ranges.capture_time_ns(), "visible.left", scene_boxes(ranges));
+    out.assign(json.begin(), json.end());
+    return true;
+  };
+  return std::make_unique<Tap<RangeArray>>(participant, recordable_topic(topics::kRanges),
+                                           std::move(encode));
+}
+
+std::vector<record::FrameTransform> rig_transforms(const camera::Rig& rig) {
+  std::vector<record::FrameTransform> out;
+  for (const camera::RigCamera& camera : rig.cameras) {
+    record::FrameTransform t;
+    t.parent = "rig";
+    t.child = camera.name;
+    const Eigen::Vector3d p = camera.T_ref_cam.translation();
+    const Eigen::Quaterniond q(camera.T_ref_cam.rotation());
+    t.translation_m = {p.x(), p.y(), p.z()};
+    t.rotation_xyzw = {q.x(), q.y(), q.z(), q.w()};
+    out.push_back(std::move(t));
+  }
+  return out;
 }
 
 std::unique_ptr<TopicPlayer> make_player(transport::Participant& participant,

@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include "thermovis/camera/rig.hpp"
+#include "thermovis/record/foxglove.hpp"
 #include "thermovis/transport/participant.hpp"
 #include "thermovis/transport/qos.hpp"
 
@@ -33,12 +35,13 @@ std::vector<RecordableTopic> parse_topic_list(const std::string& list,
                                               const std::vector<std::string>& defaults);
 
 // The self-contained IDL text of a topic's type (MCAP schema encoding "omgidl"): its IDL file with
-// the files it includes inlined, as built into this executable.
+// the files it includes inlined, as built into this executable, with its constant expressions
+// folded to literals (record::fold_constant_expressions).
 std::string schema_text(const RecordableTopic& topic);
 
-// One sample as recorded: its CDR payload and what DDS says about it.
+// One sample as recorded: its message bytes and what DDS says about it.
 struct TappedSample {
-  std::vector<std::uint8_t> cdr;
+  std::vector<std::uint8_t> data;     // CDR (make_tap) or a Foxglove JSON message (make_*_view_tap)
   std::int64_t publish_ns = 0;        // the writer's source timestamp
   std::uint64_t writer_sequence = 0;  // the writer's sequence number of the sample
   std::uint64_t missed_before = 0;    // samples of that writer this reader never got before it
@@ -56,6 +59,31 @@ class TopicTap {
 };
 std::unique_ptr<TopicTap> make_tap(transport::Participant& participant,
                                    const RecordableTopic& topic);
+
+// Views of the pipeline in Foxglove's own message types (JSON, record/foxglove.hpp), recorded
+// beside the CDR topics.
+struct ImageViewOptions {
+  double rate_hz = 2.0;   // at most this many images a second (by capture time)
+  int jpeg_quality = 80;  // 1..100, for 8-bit images; raw 16-bit infrared is a lossless PNG
+};
+// The channel of a frame topic's image view: "<topic>/left/compressed" (the left eye).
+std::string image_view_channel(const RecordableTopic& frame_topic);
+// The camera frame (rig camera name) a frame topic's left image is in: "visible.left" or
+// "infrared.left" (the rectified and fused grids are on their left camera's rectified grid).
+std::string image_frame_id(const RecordableTopic& frame_topic);
+// foxglove.CompressedImage of the left eye of `frame_topic`'s frames, at options.rate_hz.
+// Throws std::invalid_argument for a topic that is not a frame topic.
+std::unique_ptr<TopicTap> make_image_view_tap(transport::Participant& participant,
+                                              const RecordableTopic& frame_topic,
+                                              const ImageViewOptions& options);
+// foxglove.SceneUpdate of thermovis/ranges: each target a box at its position in the
+// "visible.left" camera frame, labelled with its class and distance.
+inline constexpr const char* kSceneChannel = "thermovis/scene";
+std::unique_ptr<TopicTap> make_scene_view_tap(transport::Participant& participant);
+// foxglove.FrameTransforms of the rig: each camera (by its rig name, e.g. "infrared.left") in
+// the "rig" frame (the rig's reference camera frame), from the rig's extrinsics.
+inline constexpr const char* kTransformsChannel = "thermovis/transforms";
+std::vector<record::FrameTransform> rig_transforms(const camera::Rig& rig);
 
 // Publishes recorded samples on one topic.
 class TopicPlayer {

@@ -15,3 +15,14 @@ std::string flatten_idl(const std::string& file,
                         const std::function<std::string(const std::string&)>& load);
 
 }  // namespace thermovis::record
+
+namespace thermovis::record {
+
+// `idl` with every integer constant's value and every array bound written as a literal:
+// `const unsigned long N = W * H;` becomes `= 2073600;` and `octet a[1920 * 1080]` becomes
+// `octet a[2073600]`. Foxglove's IDL parser takes literals only there. Comments are kept;
+// expressions use literals, integer constants declared before and + - * / % ( ). Throws
+// std::runtime_error naming the expression when one uses an unknown name or does not parse.
+std::string fold_constant_expressions(const std::string& idl);
+
+}  // namespace thermovis::record

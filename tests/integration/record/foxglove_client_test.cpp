@@ -1,0 +1,311 @@
+// A recording opened as Foxglove opens it (issue 20): known samples are published on a private
+// domain, `thermovis record` records every recordable topic (and its pictures, scene and rig
+// transforms), and Foxglove's own npm packages (the MCAP reader, the OMG IDL parser and the CDR
+// decoder; foxglove/check_recording.mjs) parse every channel's schema and decode every message.
+// The decoded fields must equal what was published, and the decoded pictures the published
+// images (exactly for the lossless 16-bit PNG of raw infrared). The packages are installed into the
+// build tree by the test's set-up; the test is skipped, saying so, only where npm is missing.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <set>
+#include <thread>
+
+#include "../pipeline/pipeline_harness.hpp"
+#include "thermovis/node/frame_codec.hpp"
+#include "thermovis/test/child_process.hpp"
+#include "thermovis/test/data.hpp"
+#include "thermovis/transport/qos.hpp"
+#include "thermovis/transport/topic_types.hpp"
+#include "thermovis/transport/topics.hpp"
+#include "thermovis/transport/writer.hpp"
+
+namespace {
+
+using namespace std::chrono_literals;
+using thermovis::test::ChildProcess;
+namespace tv = thermovis;
+namespace topics = tv::transport::topics;
+namespace fs = std::filesystem;
+
+// The first `name` on PATH, or empty.
+fs::path on_path(const std::string& name) {
+  const char* path = std::getenv("PATH");
+  std::istringstream dirs(path == nullptr ? "" : path);
+  for (std::string dir; std::getline(dirs, dir, ':');) {
+    const fs::path candidate = fs::path(dir) / name;
+    if (!dir.empty() && ::access(candidate.c_str(), X_OK) == 0) return candidate;
+  }
+  return {};
+}
+
+std::string file_text(const fs::path& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+class FoxgloveClient : public ::testing::Test {
+ protected:
+  // The client folder in the build tree: the package.json and script of
+  // tests/integration/record/foxglove, and the packages npm installs from that package.json
+  // (again only when the package.json changed).
+  static void SetUpTestSuite() {
+    npm_ = on_path("npm");
+    node_ = on_path("node");
+    if (npm_.empty() || node_.empty()) return;
+    const fs::path source = tv::test::source_root() / "tests/integration/record/foxglove";
+    client_ = fs::path(THERMOVIS_FOXGLOVE_CLIENT_DIR);
+    fs::create_directories(client_);
+    fs::copy_file(source / "check_recording.mjs", client_ / "check_recording.mjs",
+                  fs::copy_options::overwrite_existing);
+    const std::string wanted = file_text(source / "package.json");
+    const fs::path installed = client_ / "node_modules/.installed-package.json";
+    if (fs::exists(installed) && file_text(installed) == wanted) return;
+    std::ofstream(client_ / "package.json") << wanted;
+    ChildProcess npm({npm_.string(), "install", "--prefix", client_.string(), "--no-audit",
+                      "--no-fund", "--no-save"},
+                     client_ / "npm-install.log");
+    const auto code = npm.wait(300s);
+    if (code != 0) {
+      install_error_ = "npm install in " + client_.string() + " failed:\n" + npm.log();
+      return;
+    }
+    std::ofstream(installed) << wanted;
+  }
+
+  void SetUp() override {
+    if (npm_.empty() || node_.empty())
+      GTEST_SKIP() << "npm or node is missing (Debian packages npm and nodejs; "
+                      "deploy/install-deps.sh installs them): Foxglove's decoder is not run";
+    ASSERT_TRUE(install_error_.empty()) << install_error_;
+  }
+
+  // Foxglove's view of `file`: check_recording.mjs's JSON.
+  static nlohmann::json read_with_foxglove(const fs::path& file) {
+    ChildProcess node({node_.string(), (client_ / "check_recording.mjs").string(), file.string(),
+                       file.string() + ".images"},
+                      file.string() + ".foxglove.log");
+    const auto code = node.wait(120s);
+    EXPECT_EQ(code, 0) << node.log();
+    return tv::test::last_json_line(node.log());
+  }
+
+  static inline fs::path npm_, node_, client_;
+  static inline std::string install_error_;
+};
+
+// The messages of `topic` in Foxglove's view.
+std::vector<nlohmann::json> messages_on(const nlohmann::json& view, const std::string& topic) {
+  std::vector<nlohmann::json> out;
+  for (const auto& m : view["messages"]) {
+    if (m["topic"] == topic) out.push_back(m["message"]);
+  }
+  return out;
+}
+
+TEST_F(FoxgloveClient, EveryChannelParsesAndEveryMessageDecodesToWhatWasPublished) {
+  const auto dir = tv::test::temp_dir("foxglove_client");
+  const int domain = tv::test::private_domain();
+  const auto participant = tv::test::loopback_participant(domain, "foxglove-test");
+  const auto file = dir / "published.mcap";
+
+  std::string all_topics;
+  for (const char* t :
+       {topics::kVisibleFrames, topics::kInfraredFrames, topics::kRectifiedVisible,
+        topics::kRectifiedInfrared, topics::kFused, topics::kDisplay, topics::kDetections,
+        topics::kMatches, topics::kRanges, topics::kTiming, topics::kHealth})
+    all_topics += (all_topics.empty() ? "" : ",") + std::string(t);
+  // --wait: the topics nobody publishes here are waited for that long (their channels and
+  // schemas are still written); --seconds counts from then.
+  ChildProcess record({(tv::test::bin_dir() / "thermovis").string(),
+                       "record",
+                       "--out",
+                       file.string(),
+                       "--topics",
+                       all_topics,
+                       "--images",
+                       std::string(topics::kFused) + "," + topics::kInfraredFrames,
+                       "--image-rate",
+                       "10",
+                       "--jpeg-quality",
+                       "95",
+                       "--seconds",
+                       "10",
+                       "--wait",
+                       "5",
+                       "--domain",
+                       std::to_string(domain),
+                       "--profile",
+                       tv::transport::kLoopbackProfile,
+                       "--json"},
+                      dir / "record.log");
+
+  tv::transport::Writer<tv::RangeArray> ranges(*participant, topics::kRanges,
+                                               tv::transport::event_topic_qos());
+  tv::transport::Writer<tv::DetectionArray> detections(*participant, topics::kDetections,
+                                                       tv::transport::event_topic_qos());
+  tv::transport::Writer<tv::InfraredStereoFrame> infrared(*participant, topics::kInfraredFrames,
+                                                          tv::transport::frame_topic_qos());
+  ASSERT_TRUE(ranges.wait_for_readers(1, 60s)) << record.log();
+  ASSERT_TRUE(detections.wait_for_readers(1, 60s)) << record.log();
+  // The fused topic's QoS as the rectify-fuse writes it (recording.cpp's table).
+  tv::transport::Writer<tv::GridStereoFrame> fused(
+      *participant, topics::kFused,
+      tv::transport::frame_topic_qos(tv::transport::kDefaultFrameDeadline, 2, 4));
+  // Two readers of each frame topic and of the ranges: the CDR tap and the picture or scene tap.
+  ASSERT_TRUE(ranges.wait_for_readers(2, 60s)) << record.log();
+  ASSERT_TRUE(infrared.wait_for_readers(2, 60s)) << record.log();
+  ASSERT_TRUE(fused.wait_for_readers(1, 60s)) << record.log();
+
+  tv::RangeArray range;
+  range.frame_seq(42);
+  range.capture_time_ns(1'700'000'000'000'000'000);
+  tv::TargetRange target;
+  target.target_id(3);
+  target.label("person");
+  target.distance_m(12.5F);
+  target.x_m(1.5F);
+  target.y_m(0.25F);
+  target.z_m(12.25F);
+  target.box(tv::Box2D{});
+  target.box().x(100.0F);
+  target.box().y(200.0F);
+  target.box().width(30.0F);
+  target.box().height(80.0F);
+  target.band(tv::BAND_INFRARED);
+  range.targets().push_back(target);
+  ranges.write(range);
+
+  tv::DetectionArray detection;
+  detection.frame_seq(42);
+  tv::Detection d;
+  d.target_id(3);
+  d.label("person");
+  d.score(0.75F);
+  d.box(target.box());
+  detection.detections().push_back(d);
+  detections.write(detection);
+
+  // 14-bit counts and a colour gradient: pictures with content a codec can get wrong.
+  cv::Mat counts(tv::INFRARED_HEIGHT, tv::INFRARED_WIDTH, CV_16UC1);
+  cv::randu(counts, 0, 16384);
+  cv::Mat colour(480, 640, CV_8UC3);
+  for (int y = 0; y < colour.rows; ++y)
+    for (int x = 0; x < colour.cols; ++x)
+      colour.at<cv::Vec3b>(y, x) = {static_cast<std::uint8_t>(x / 3),
+                                    static_cast<std::uint8_t>(y / 2),
+                                    static_cast<std::uint8_t>(128)};
+  // The frame topics are best-effort (as the bridge's): the same capture is sent a few times so
+  // that one arrives. The pictures' rate limit keeps one picture of it.
+  for (int i = 0; i < 10; ++i) {
+    {
+      auto frame = infrared.loan();
+      frame->seq(41);
+      frame->capture_time_ns(1'700'000'000'000'000'000);
+      counts.copyTo(tv::node::prepare(*frame, tv::node::Eye::left, counts.size()));
+      infrared.publish(std::move(frame));
+    }
+    {
+      auto frame = fused.loan();
+      frame->seq(41);
+      frame->capture_time_ns(1'700'000'000'000'000'000);
+      frame->eyes(tv::EYES_LEFT);
+      colour.copyTo(tv::node::prepare(*frame, tv::node::Eye::left, colour.size(), CV_8UC3));
+      fused.publish(std::move(frame));
+    }
+    std::this_thread::sleep_for(200ms);
+  }
+
+  ASSERT_EQ(record.wait(60s), 0) << record.log();
+  const nlohmann::json view = read_with_foxglove(file);
+  ASSERT_TRUE(view.is_object()) << "no JSON from check_recording.mjs";
+
+  // Every recorded topic has a channel whose schema Foxglove parsed (it exits non-zero otherwise).
+  std::set<std::string> channels;
+  for (const auto& c : view["channels"]) channels.insert(c["topic"].get<std::string>());
+  std::istringstream listed(all_topics);
+  for (std::string t; std::getline(listed, t, ',');) EXPECT_EQ(channels.count(t), 1U) << t;
+
+  const auto decoded_ranges = messages_on(view, topics::kRanges);
+  ASSERT_EQ(decoded_ranges.size(), 1U) << view["channels"].dump();
+  EXPECT_EQ(decoded_ranges[0]["frame_seq"], 42);
+  ASSERT_EQ(decoded_ranges[0]["targets"].size(), 1U);
+  const auto& t = decoded_ranges[0]["targets"][0];
+  EXPECT_EQ(t["target_id"], 3);
+  EXPECT_EQ(t["label"], "person");
+  EXPECT_FLOAT_EQ(t["distance_m"].get<float>(), 12.5F);
+  EXPECT_FLOAT_EQ(t["z_m"].get<float>(), 12.25F);
+  EXPECT_EQ(t["band"], tv::BAND_INFRARED);
+
+  const auto decoded_detections = messages_on(view, topics::kDetections);
+  ASSERT_EQ(decoded_detections.size(), 1U);
+  ASSERT_EQ(decoded_detections[0]["detections"].size(), 1U);
+  const auto& box = decoded_detections[0]["detections"][0]["box"];
+  EXPECT_FLOAT_EQ(box["x"].get<float>(), 100.0F);
+  EXPECT_FLOAT_EQ(box["y"].get<float>(), 200.0F);
+  EXPECT_FLOAT_EQ(box["width"].get<float>(), 30.0F);
+  EXPECT_FLOAT_EQ(box["height"].get<float>(), 80.0F);
+  EXPECT_FLOAT_EQ(decoded_detections[0]["detections"][0]["score"].get<float>(), 0.75F);
+
+  const auto decoded_frames = messages_on(view, topics::kInfraredFrames);
+  ASSERT_GE(decoded_frames.size(), 1U);
+  EXPECT_EQ(decoded_frames[0]["seq"], 41);
+  EXPECT_EQ(decoded_frames[0]["pixel_format"], tv::PIXEL_FORMAT_MONO16);
+  EXPECT_EQ(decoded_frames[0]["width"], tv::INFRARED_WIDTH);
+  EXPECT_EQ(decoded_frames[0]["left"]["length"], tv::INFRARED_WIDTH * tv::INFRARED_HEIGHT);
+
+  // The pictures, as Foxglove's image panel gets them.
+  const auto infrared_pictures =
+      messages_on(view, std::string(topics::kInfraredFrames) + "/left/compressed");
+  ASSERT_EQ(infrared_pictures.size(), 1U);
+  EXPECT_EQ(infrared_pictures[0]["format"], "png");
+  EXPECT_EQ(infrared_pictures[0]["frame_id"], "infrared.left");
+  EXPECT_EQ(infrared_pictures[0]["timestamp"]["sec"], 1'700'000'000);
+  const cv::Mat counts_back =
+      cv::imread(infrared_pictures[0]["data"].get<std::string>(), cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(counts_back.type(), CV_16UC1);
+  EXPECT_EQ(cv::norm(counts_back, counts, cv::NORM_INF), 0.0) << "the 16-bit PNG is lossless";
+  const auto fused_pictures = messages_on(view, std::string(topics::kFused) + "/left/compressed");
+  ASSERT_EQ(fused_pictures.size(), 1U);
+  EXPECT_EQ(fused_pictures[0]["format"], "jpeg");
+  EXPECT_EQ(fused_pictures[0]["frame_id"], "visible.left");
+  const cv::Mat colour_back = cv::imread(fused_pictures[0]["data"].get<std::string>());
+  ASSERT_EQ(colour_back.size(), colour.size());
+  EXPECT_LT(cv::norm(colour_back, colour, cv::NORM_L1) / static_cast<double>(colour.total() * 3),
+            2.0)
+      << "mean absolute error of the quality-95 JPEG, grey levels";
+
+  // The scene: the target as a box at its position, labelled with its distance.
+  const auto scenes = messages_on(view, "thermovis/scene");
+  ASSERT_EQ(scenes.size(), 1U);
+  ASSERT_EQ(scenes[0]["entities"].size(), 1U);
+  const auto& entity = scenes[0]["entities"][0];
+  EXPECT_EQ(entity["frame_id"], "visible.left");
+  const auto& position = entity["cubes"][0]["pose"]["position"];
+  EXPECT_FLOAT_EQ(position["x"].get<float>(), 1.5F);
+  EXPECT_FLOAT_EQ(position["y"].get<float>(), 0.25F);
+  EXPECT_FLOAT_EQ(position["z"].get<float>(), 12.25F);
+  EXPECT_EQ(entity["texts"][0]["text"], "person 12.5 m");
+
+  // The rig's four cameras.
+  const auto transforms = messages_on(view, "thermovis/transforms");
+  ASSERT_EQ(transforms.size(), 1U);
+  std::set<std::string> cameras;
+  for (const auto& transform : transforms[0]["transforms"]) {
+    EXPECT_EQ(transform["parent_frame_id"], "rig");
+    cameras.insert(transform["child_frame_id"].get<std::string>());
+  }
+  EXPECT_EQ(cameras, (std::set<std::string>{"visible.left", "visible.right", "infrared.left",
+                                            "infrared.right"}));
+}
+
+}  // namespace
