@@ -102,6 +102,8 @@ std::vector<Detection> detect_people_hog(const cv::Mat& visible, const HogOption
     cv::resize(visible, small, cv::Size(), o.scale, o.scale, cv::INTER_AREA);
   }
   cv::HOGDescriptor hog;
+  // An image smaller than the detector's window (64 x 128) holds no person it can see.
+  if (small.cols < hog.winSize.width || small.rows < hog.winSize.height) return {};
   hog.setSVMDetector(cv::HOGDescriptor::getDefaultPeopleDetector());
   std::vector<cv::Rect> found;
   std::vector<double> weights;
