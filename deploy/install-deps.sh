@@ -5,7 +5,7 @@ set -euo pipefail
 
 packages=(
   build-essential cmake pkg-config git
-  libopencv-dev libopencv-contrib-dev
+  libopencv-dev libopencv-contrib-dev opencv-data
   libeigen3-dev libyaml-cpp-dev nlohmann-json3-dev libcli11-dev libceres-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libfastrtps-dev fastddsgen fastdds-tools

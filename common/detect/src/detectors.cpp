@@ -14,13 +14,33 @@ double intersection_over_union(const cv::Rect& a, const cv::Rect& b) {
   return uni > 0 ? inter / uni : 0.0;
 }
 
+bool height_fits_ground(const cv::Rect& box, const camera::RectifiedCamera& grid,
+                        const WarmBlobOptions& o) {
+  // Known geometry: the foot row's angle below the horizon gives the ground distance, and a
+  // person there is person_height_m tall (angular height on the grid's rows).
+  const auto& g = grid.intrinsics();
+  const double below = (box.br().y - 0.5 - g.cy) / g.f;  // rad below the horizon
+  if (below <= 0.0) return false;                        // foot above the horizon
+  const double distance = o.camera_height_m / std::tan(below);
+  const double top = std::atan2(o.camera_height_m - o.person_height_m, distance);  // rad below
+  const double expected = (below - top) * g.f;
+  const double ratio = box.height / expected;
+  return ratio >= o.height_ratio_min && ratio <= o.height_ratio_max;
+}
+
 std::vector<Detection> detect_warm_blobs(const cv::Mat& infrared,
                                          const camera::RectifiedCamera& grid,
+                                         const WarmBlobOptions& options) {
+  return detect_warm_blobs(infrared, &grid, options);
+}
+
+std::vector<Detection> detect_warm_blobs(const cv::Mat& infrared,
+                                         const camera::RectifiedCamera* grid,
                                          const WarmBlobOptions& o) {
   if (infrared.type() != CV_16UC1 && infrared.type() != CV_8UC1) {
     throw std::invalid_argument("detect_warm_blobs: infrared must be CV_16UC1 or CV_8UC1");
   }
-  if (infrared.size() != grid.image_size()) {
+  if (grid != nullptr && infrared.size() != grid->image_size()) {
     throw std::invalid_argument("detect_warm_blobs: image size differs from the grid's");
   }
   // Background statistics over the pixels inside the field (value > 0), on a subsample.
@@ -52,22 +72,13 @@ std::vector<Detection> detect_warm_blobs(const cv::Mat& infrared,
   cv::Mat labels, stats, centroids;
   const int n = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
   std::vector<Detection> out;
-  const auto& g = grid.intrinsics();
   for (int i = 1; i < n; ++i) {
     const cv::Rect box(stats.at<int>(i, cv::CC_STAT_LEFT), stats.at<int>(i, cv::CC_STAT_TOP),
                        stats.at<int>(i, cv::CC_STAT_WIDTH), stats.at<int>(i, cv::CC_STAT_HEIGHT));
     if (stats.at<int>(i, cv::CC_STAT_AREA) < o.min_area_px) continue;
     const double aspect = static_cast<double>(box.height) / box.width;
     if (aspect < o.min_aspect || aspect > o.max_aspect) continue;
-    // Known geometry: the foot row's angle below the horizon gives the ground distance, and a
-    // person there is person_height_m tall (angular height on the grid's rows).
-    const double below = (box.br().y - 0.5 - g.cy) / g.f;  // rad below the horizon
-    if (below <= 0.0) continue;                            // foot above the horizon
-    const double distance = o.camera_height_m / std::tan(below);
-    const double top = std::atan2(o.camera_height_m - o.person_height_m, distance);  // rad below
-    const double expected = (below - top) * g.f;
-    const double ratio = box.height / expected;
-    if (ratio < o.height_ratio_min || ratio > o.height_ratio_max) continue;
+    if (grid != nullptr && !height_fits_ground(box, *grid, o)) continue;
     const double mean = cv::mean(values(box), mask(box))[0];
     Detection d;
     d.box = box;
@@ -91,6 +102,8 @@ std::vector<Detection> detect_people_hog(const cv::Mat& visible, const HogOption
     cv::resize(visible, small, cv::Size(), o.scale, o.scale, cv::INTER_AREA);
   }
   cv::HOGDescriptor hog;
+  // An image smaller than the detector's window (64 x 128) holds no person it can see.
+  if (small.cols < hog.winSize.width || small.rows < hog.winSize.height) return {};
   hog.setSVMDetector(cv::HOGDescriptor::getDefaultPeopleDetector());
   std::vector<cv::Rect> found;
   std::vector<double> weights;

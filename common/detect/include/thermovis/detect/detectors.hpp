@@ -43,6 +43,16 @@ struct WarmBlobOptions {
 std::vector<Detection> detect_warm_blobs(const cv::Mat& infrared,
                                          const camera::RectifiedCamera& grid,
                                          const WarmBlobOptions& options = {});
+// The same without the ground prior when grid is null (a plain image of unknown geometry: only
+// the area and aspect tests apply).
+std::vector<Detection> detect_warm_blobs(const cv::Mat& infrared,
+                                         const camera::RectifiedCamera* grid,
+                                         const WarmBlobOptions& options = {});
+
+// Whether a box standing on the ground (its bottom row the foot) is as tall as a person of
+// options.person_height_m at the distance that row gives on a level rig at camera_height_m.
+bool height_fits_ground(const cv::Rect& box, const camera::RectifiedCamera& grid,
+                        const WarmBlobOptions& options);
 
 struct HogOptions {
   double scale = 1.0;          // image reduction before the detector (0.5 = half size)

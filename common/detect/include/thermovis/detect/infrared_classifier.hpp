@@ -1,0 +1,97 @@
+#pragma once
+// Infrared people by candidates and a classifier (trained here, from our own annotated frames):
+//  1. the frame becomes 8-bit (CV_8UC1 as it is; CV_16UC1 raw counts stretched linearly from
+//     the 1st to the 99.9th percentile of the field's pixels onto 1..255; 0 stays outside);
+//  2. candidates: warm regions at several thresholds, nested (a level's components are searched
+//     for warmer components inside their boxes), so that people touching one another or
+//     standing on warm ground still come out as components of their own at some level;
+//  3. each candidate is described by HOG on its box with a margin (resized to a fixed window,
+//     so the description does not depend on the person's size in pixels) and by scale-free
+//     shape and contrast features (aspect, fill, contrast to the ring around the box, to the
+//     threshold and to the enclosing component);
+//  4. boosted trees (OpenCV ml, Real AdaBoost) score them; boxes above min_score are kept and
+//     non-maximum suppression keeps the best of overlapping ones.
+#include <filesystem>
+#include <memory>
+#include <opencv2/core/mat.hpp>
+#include <vector>
+
+#include "thermovis/detect/detectors.hpp"
+
+namespace thermovis::detect {
+
+struct CandidateOptions {
+  int levels = 8;                // thresholds per frame
+  double first_k_sigma = 2.0;    // lowest: field median + this many robust sigmas (1.4826 MAD)
+  double top_percentile = 99.9;  // highest threshold stays below this percentile of the field
+  int min_height_px = 4;
+  int min_area_px = 6;
+  double max_frame_fraction = 0.25;  // larger components (the warm ground itself) are no person
+  // Each component gives a box per growth: its own (0) and ones grown by that fraction of its
+  // size on each side; the classifier picks the one that fits the person.
+  std::vector<double> box_growth = {0.0, 0.1, 0.25};
+};
+
+struct Candidate {
+  cv::Rect box;
+  int level = 0;              // 0 = lowest threshold
+  double area_px = 0;         // pixels of the component
+  double threshold = 0;       // grey level of its threshold (8-bit)
+  double parent_area_px = 0;  // of the enclosing component one level down (own area at level 0)
+  double growth = 0;          // the box is the component's grown by this on each side
+};
+
+// The 8-bit image candidates and features are computed on (see 1. above). Throws
+// std::invalid_argument for a type other than CV_8UC1 or CV_16UC1.
+cv::Mat infrared_to_8bit(const cv::Mat& infrared);
+
+std::vector<Candidate> infrared_candidates(const cv::Mat& ir8,
+                                           const CandidateOptions& options = {});
+
+// One CV_32F row of features per candidate (same order).
+cv::Mat candidate_features(const cv::Mat& ir8, const std::vector<Candidate>& candidates);
+
+// The trained scorer. The model file is OpenCV's ml::Boost in FileStorage form (.yml or .yml.gz).
+class InfraredClassifier {
+ public:
+  // Throws std::runtime_error naming the file when it cannot be read or holds no trained model
+  // of the feature size candidate_features gives.
+  explicit InfraredClassifier(const std::filesystem::path& model);
+  ~InfraredClassifier();
+  InfraredClassifier(InfraredClassifier&&) noexcept;
+  InfraredClassifier& operator=(InfraredClassifier&&) noexcept;
+
+  // Sum of the weak trees' votes per row of candidate_features (> 0: person).
+  std::vector<double> score(const cv::Mat& features) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+struct TrainingSample {
+  cv::Mat features;  // one row
+  int label = 0;     // 1 person, 0 not
+};
+
+struct TrainingOptions {
+  double positive_iou = 0.5;  // a candidate this close to a person box is one
+  double negative_iou = 0.3;  // one that overlaps no person (or don't-care box) this much is not
+  int weak_count = 150;
+  int max_depth = 2;
+};
+
+// The labelled candidates of one annotated frame (candidates between the two IoUs are left out).
+// Appends to samples; returns how many person boxes have a candidate >= positive_iou (the
+// recall the classifier can reach at best).
+int collect_training_samples(const cv::Mat& infrared, const std::vector<cv::Rect>& persons,
+                             const std::vector<cv::Rect>& dont_care,
+                             const CandidateOptions& candidate_options,
+                             const TrainingOptions& options, std::vector<TrainingSample>& samples);
+
+// Trains the boosted trees and writes them to model. Throws std::invalid_argument when there
+// are no samples of one class.
+void train_infrared_classifier(const std::vector<TrainingSample>& samples,
+                               const TrainingOptions& options, const std::filesystem::path& model);
+
+}  // namespace thermovis::detect

@@ -1,0 +1,279 @@
+#include "thermovis/detect/infrared_classifier.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/ml.hpp>
+#include <opencv2/objdetect.hpp>
+#include <stdexcept>
+
+namespace thermovis::detect {
+
+namespace {
+
+// Grey levels of the field (pixels > 0), on a 1-in-16 subsample (8-bit or 16-bit image).
+std::vector<float> field_samples(const cv::Mat& image) {
+  std::vector<float> samples;
+  samples.reserve(image.total() / 16 + 1);
+  for (int y = 0; y < image.rows; y += 4) {
+    for (int x = 0; x < image.cols; x += 4) {
+      const float v =
+          image.depth() == CV_16U ? image.at<std::uint16_t>(y, x) : image.at<std::uint8_t>(y, x);
+      if (v > 0) samples.push_back(v);
+    }
+  }
+  return samples;
+}
+
+float percentile(std::vector<float>& v, double p) {
+  const auto k = static_cast<std::ptrdiff_t>(std::clamp(
+      p / 100.0 * static_cast<double>(v.size() - 1), 0.0, static_cast<double>(v.size() - 1)));
+  std::nth_element(v.begin(), v.begin() + k, v.end());
+  return v[static_cast<std::size_t>(k)];
+}
+
+struct FieldStats {
+  double median = 0, sigma = 1, top = 0;
+  bool valid = false;
+};
+
+FieldStats field_stats(const cv::Mat& ir8, double top_percentile) {
+  std::vector<float> s = field_samples(ir8);
+  FieldStats f;
+  if (s.size() < 16) return f;
+  f.top = percentile(s, top_percentile);
+  f.median = percentile(s, 50.0);
+  for (float& v : s) v = std::abs(v - static_cast<float>(f.median));
+  f.sigma = std::max(1.0, 1.4826 * percentile(s, 50.0));
+  f.valid = true;
+  return f;
+}
+
+// Features of a candidate beyond HOG (all without units: ratios and grey levels in robust
+// sigmas of the field), then the HOG window.
+constexpr int kShapeFeatures = 9;
+const cv::Size kWindow(20, 20);
+constexpr double kMargin = 0.25;  // context around the box, in box sizes on each side
+
+cv::HOGDescriptor make_hog() {
+  return cv::HOGDescriptor(kWindow, cv::Size(10, 10), cv::Size(5, 5), cv::Size(5, 5), 9);
+}
+
+int feature_count() { return kShapeFeatures + static_cast<int>(make_hog().getDescriptorSize()); }
+
+cv::Rect grown(const cv::Rect& box, double margin) {
+  const int mx = static_cast<int>(std::ceil(box.width * margin));
+  const int my = static_cast<int>(std::ceil(box.height * margin));
+  return {box.x - mx, box.y - my, box.width + 2 * mx, box.height + 2 * my};
+}
+
+// The image inside rect, the parts outside the image filled by replicating its edge.
+cv::Mat crop_replicate(const cv::Mat& image, const cv::Rect& rect) {
+  const cv::Rect inside = rect & cv::Rect(0, 0, image.cols, image.rows);
+  cv::Mat out;
+  cv::copyMakeBorder(image(inside), out, inside.y - rect.y, rect.br().y - inside.br().y,
+                     inside.x - rect.x, rect.br().x - inside.br().x, cv::BORDER_REPLICATE);
+  return out;
+}
+
+void add_components(const cv::Mat& ir8, const cv::Rect& roi, const cv::Mat& inside,
+                    const std::vector<double>& thresholds, int level, double parent_area,
+                    const CandidateOptions& o, std::vector<Candidate>& out) {
+  cv::Mat mask;
+  cv::compare(ir8(roi), cv::Scalar(thresholds[static_cast<std::size_t>(level)]), mask, cv::CMP_GT);
+  if (!inside.empty()) mask &= inside;
+  cv::Mat labels, stats, centroids;
+  const int n = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
+  const double too_large = o.max_frame_fraction * static_cast<double>(ir8.total());
+  for (int i = 1; i < n; ++i) {
+    const double area = stats.at<int>(i, cv::CC_STAT_AREA);
+    if (area < o.min_area_px) continue;
+    const cv::Rect local(stats.at<int>(i, cv::CC_STAT_LEFT), stats.at<int>(i, cv::CC_STAT_TOP),
+                         stats.at<int>(i, cv::CC_STAT_WIDTH), stats.at<int>(i, cv::CC_STAT_HEIGHT));
+    const cv::Rect box = local + roi.tl();
+    if (area <= too_large && box.height >= o.min_height_px) {
+      Candidate c;
+      c.level = level;
+      c.area_px = area;
+      c.threshold = thresholds[static_cast<std::size_t>(level)];
+      c.parent_area_px = level == 0 ? area : parent_area;
+      // The component and boxes grown around it: a threshold's outline lies inside the
+      // person's (cooler edges, clothing), by more at warmer levels.
+      for (const double g : o.box_growth) {
+        c.box = grown(box, g) & cv::Rect(0, 0, ir8.cols, ir8.rows);
+        c.growth = g;
+        out.push_back(c);
+      }
+    }
+    if (level + 1 < static_cast<int>(thresholds.size())) {
+      cv::Mat own;
+      cv::compare(labels(local), cv::Scalar(i), own, cv::CMP_EQ);
+      add_components(ir8, box, own, thresholds, level + 1, area, o, out);
+    }
+  }
+}
+
+}  // namespace
+
+cv::Mat infrared_to_8bit(const cv::Mat& infrared) {
+  if (infrared.type() == CV_8UC1) return infrared;
+  if (infrared.type() != CV_16UC1)
+    throw std::invalid_argument("infrared_to_8bit: infrared must be CV_16UC1 or CV_8UC1");
+  std::vector<float> s = field_samples(infrared);
+  cv::Mat out(infrared.size(), CV_8UC1, cv::Scalar(0));
+  if (s.size() < 16) return out;
+  const double lo = percentile(s, 1.0);
+  const double hi = std::max(lo + 1.0, static_cast<double>(percentile(s, 99.9)));
+  const double gain = 254.0 / (hi - lo);
+  infrared.convertTo(out, CV_8U, gain, 1.0 - lo * gain);
+  cv::max(out, 1, out);
+  out.setTo(0, infrared == 0);
+  return out;
+}
+
+std::vector<Candidate> infrared_candidates(const cv::Mat& ir8, const CandidateOptions& o) {
+  if (ir8.type() != CV_8UC1) throw std::invalid_argument("infrared_candidates: needs CV_8UC1");
+  if (o.levels < 1) throw std::invalid_argument("infrared_candidates: levels >= 1");
+  const FieldStats f = field_stats(ir8, o.top_percentile);
+  if (!f.valid) return {};
+  const double first = f.median + o.first_k_sigma * f.sigma;
+  if (first >= 255.0) return {};
+  const double top = std::max(f.top, first + o.levels);
+  std::vector<double> thresholds;
+  for (int i = 0; i < o.levels; ++i)
+    thresholds.push_back(std::floor(first + (top - first) * i / o.levels));
+  std::vector<Candidate> out;
+  add_components(ir8, cv::Rect(0, 0, ir8.cols, ir8.rows), cv::Mat(), thresholds, 0, 0.0, o, out);
+  return out;
+}
+
+cv::Mat candidate_features(const cv::Mat& ir8, const std::vector<Candidate>& candidates) {
+  if (ir8.type() != CV_8UC1) throw std::invalid_argument("candidate_features: needs CV_8UC1");
+  cv::Mat features(static_cast<int>(candidates.size()), feature_count(), CV_32F, cv::Scalar(0));
+  if (candidates.empty()) return features;
+  const FieldStats f = field_stats(ir8, 99.9);
+  const cv::HOGDescriptor hog = make_hog();
+  std::vector<float> descriptor;
+  cv::Mat window;
+  for (std::size_t i = 0; i < candidates.size(); ++i) {
+    const Candidate& c = candidates[i];
+    const cv::Rect outer = grown(c.box, kMargin);
+    const cv::Mat patch = crop_replicate(ir8, outer);
+    cv::resize(patch, window, kWindow, 0, 0,
+               patch.cols > kWindow.width ? cv::INTER_AREA : cv::INTER_LINEAR);
+    hog.compute(window, descriptor);
+    const cv::Mat box_pixels = ir8(c.box);
+    cv::Scalar mean_box, sd_box;
+    cv::meanStdDev(box_pixels, mean_box, sd_box);
+    double max_box = 0;
+    cv::minMaxLoc(box_pixels, nullptr, &max_box);
+    const double ring_area = static_cast<double>(patch.total()) - c.box.area();
+    const double ring_mean =
+        ring_area > 0 ? (cv::sum(patch)[0] - cv::sum(box_pixels)[0]) / ring_area : mean_box[0];
+    float* row = features.ptr<float>(static_cast<int>(i));
+    row[0] = static_cast<float>(std::log(static_cast<double>(c.box.height) / c.box.width));
+    row[1] = static_cast<float>(c.area_px / c.box.area());
+    row[2] = static_cast<float>((mean_box[0] - ring_mean) / f.sigma);
+    row[3] = static_cast<float>((max_box - c.threshold) / f.sigma);
+    row[4] = static_cast<float>((mean_box[0] - f.median) / f.sigma);
+    row[5] = static_cast<float>(c.level);
+    row[6] = static_cast<float>(c.area_px / std::max(1.0, c.parent_area_px));
+    row[7] = static_cast<float>(sd_box[0] / f.sigma);
+    row[8] = static_cast<float>(c.growth);
+    std::copy(descriptor.begin(), descriptor.end(), row + kShapeFeatures);
+  }
+  return features;
+}
+
+struct InfraredClassifier::Impl {
+  cv::Ptr<cv::ml::Boost> boost;
+};
+
+InfraredClassifier::InfraredClassifier(const std::filesystem::path& model)
+    : impl_(std::make_unique<Impl>()) {
+  if (!std::filesystem::is_regular_file(model))
+    throw std::runtime_error(model.string() + ": no model file");
+  try {
+    impl_->boost = cv::Algorithm::load<cv::ml::Boost>(model.string());
+  } catch (const cv::Exception& e) {
+    throw std::runtime_error(model.string() + ": not an OpenCV boosted-trees model: " + e.what());
+  }
+  if (impl_->boost.empty() || !impl_->boost->isTrained())
+    throw std::runtime_error(model.string() + ": holds no trained boosted-trees model");
+  if (impl_->boost->getVarCount() != feature_count()) {
+    throw std::runtime_error(model.string() + ": made for " +
+                             std::to_string(impl_->boost->getVarCount()) + " features, these are " +
+                             std::to_string(feature_count()) + " (retrain with detect-train)");
+  }
+}
+
+InfraredClassifier::~InfraredClassifier() = default;
+InfraredClassifier::InfraredClassifier(InfraredClassifier&&) noexcept = default;
+InfraredClassifier& InfraredClassifier::operator=(InfraredClassifier&&) noexcept = default;
+
+std::vector<double> InfraredClassifier::score(const cv::Mat& features) const {
+  std::vector<double> out;
+  out.reserve(static_cast<std::size_t>(features.rows));
+  for (int i = 0; i < features.rows; ++i) {
+    out.push_back(impl_->boost->predict(features.row(i), cv::noArray(),
+                                        static_cast<int>(cv::ml::DTrees::PREDICT_SUM) |
+                                            static_cast<int>(cv::ml::StatModel::RAW_OUTPUT)));
+  }
+  return out;
+}
+
+int collect_training_samples(const cv::Mat& infrared, const std::vector<cv::Rect>& persons,
+                             const std::vector<cv::Rect>& dont_care,
+                             const CandidateOptions& candidate_options,
+                             const TrainingOptions& options, std::vector<TrainingSample>& samples) {
+  const cv::Mat ir8 = infrared_to_8bit(infrared);
+  const std::vector<Candidate> candidates = infrared_candidates(ir8, candidate_options);
+  const cv::Mat features = candidate_features(ir8, candidates);
+  std::vector<bool> found(persons.size(), false);
+  for (std::size_t i = 0; i < candidates.size(); ++i) {
+    double best = 0.0;
+    for (std::size_t k = 0; k < persons.size(); ++k) {
+      const double o = intersection_over_union(candidates[i].box, persons[k]);
+      if (o >= options.positive_iou) found[k] = true;
+      best = std::max(best, o);
+    }
+    for (const cv::Rect& d : dont_care)
+      best = std::max(best, intersection_over_union(candidates[i].box, d));
+    int label = -1;
+    if (best >= options.positive_iou) {
+      label = 1;
+      for (const cv::Rect& d : dont_care) {
+        if (intersection_over_union(candidates[i].box, d) >= options.positive_iou) label = -1;
+      }
+    } else if (best < options.negative_iou) {
+      label = 0;
+    }
+    if (label < 0) continue;
+    samples.push_back({features.row(static_cast<int>(i)).clone(), label});
+  }
+  return static_cast<int>(std::count(found.begin(), found.end(), true));
+}
+
+void train_infrared_classifier(const std::vector<TrainingSample>& samples,
+                               const TrainingOptions& options, const std::filesystem::path& model) {
+  int positives = 0;
+  cv::Mat data(static_cast<int>(samples.size()), feature_count(), CV_32F);
+  cv::Mat responses(static_cast<int>(samples.size()), 1, CV_32S);
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    samples[i].features.copyTo(data.row(static_cast<int>(i)));
+    responses.at<int>(static_cast<int>(i)) = samples[i].label;
+    positives += samples[i].label;
+  }
+  if (positives == 0 || positives == static_cast<int>(samples.size()))
+    throw std::invalid_argument("train_infrared_classifier: needs samples of both classes");
+  auto boost = cv::ml::Boost::create();
+  boost->setBoostType(cv::ml::Boost::REAL);
+  boost->setWeakCount(options.weak_count);
+  boost->setMaxDepth(options.max_depth);
+  boost->setWeightTrimRate(0.95);
+  boost->setUseSurrogates(false);
+  boost->train(cv::ml::TrainData::create(data, cv::ml::ROW_SAMPLE, responses));
+  boost->save(model.string());
+}
+
+}  // namespace thermovis::detect

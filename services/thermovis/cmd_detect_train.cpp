@@ -1,0 +1,73 @@
+// thermovis detect-train: trains the infrared person classifier on the training frames of
+// annotated folders (the frames detect-eval never evaluates, see is_training_frame) and writes
+// the model file the detector loads.
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <stdexcept>
+
+#include "command.hpp"
+#include "thermovis/detect/evaluation.hpp"
+#include "thermovis/detect/infrared_classifier.hpp"
+
+namespace {
+
+namespace dt = thermovis::detect;
+
+struct Options {
+  std::vector<std::string> dirs;
+  std::string out;
+  dt::TrainingOptions training;
+};
+
+int run_detect_train(const Options& opt) {
+  std::vector<dt::TrainingSample> samples;
+  int frames = 0, persons = 0, reachable = 0;
+  for (const auto& dir : opt.dirs) {
+    const dt::AnnotatedSet set = dt::load_annotated_set(dir);
+    for (const auto& e : set.errors) std::cerr << "detect-train: " << e << "\n";
+    for (const auto& frame : set.frames) {
+      if (!dt::is_training_frame(frame.name)) continue;
+      dt::FrameImages images;
+      try {
+        images = dt::load_frame_images(frame, false);
+      } catch (const std::exception& e) {
+        std::cerr << "detect-train: " << e.what() << "\n";
+        continue;
+      }
+      reachable += dt::collect_training_samples(images.infrared, frame.persons, frame.dont_care,
+                                                dt::CandidateOptions{}, opt.training, samples);
+      persons += static_cast<int>(frame.persons.size());
+      ++frames;
+    }
+  }
+  int positives = 0;
+  for (const auto& s : samples) positives += s.label;
+  std::cout << "training frames " << frames << ", persons " << persons
+            << ", persons with a candidate at IoU >= " << opt.training.positive_iou << ": "
+            << reachable << "; samples " << positives << " person, "
+            << samples.size() - static_cast<std::size_t>(positives) << " not\n";
+  dt::train_infrared_classifier(samples, opt.training, opt.out);
+  std::cout << "wrote " << opt.out << " (" << std::filesystem::file_size(opt.out) << " bytes)\n";
+  return 0;
+}
+
+THERMOVIS_COMMAND(
+    "detect-train",
+    "Trains the infrared person classifier on the training frames of annotated folders",
+    [](CLI::App& app) -> thermovis::cli::Runner {
+      auto opt = std::make_shared<Options>();
+      app.add_option("--dir", opt->dirs,
+                     "annotated folder (infrared/, boxes.json); repeat for several. Only its "
+                     "training frames are used: the FNV-1a 32-bit hash of the name less its last "
+                     "character is even (detect-eval --frames eval takes the others)")
+          ->required();
+      app.add_option("--out", opt->out, "model file to write (.yml or .yml.gz)")->required();
+      app.add_option("--weak-count", opt->training.weak_count, "boosted trees")
+          ->capture_default_str();
+      app.add_option("--max-depth", opt->training.max_depth, "depth of each tree")
+          ->capture_default_str();
+      return [opt] { return run_detect_train(*opt); };
+    });
+
+}  // namespace

@@ -1,0 +1,81 @@
+// CPU cost of the detection stage per frame, one thread, on the pipeline's grid (the visible
+// pair grid at --grid-scale 0.5: 936 x 566): a simulated capture of the paper scene, its left
+// infrared camera (16-bit raw counts) rectified onto that grid, people searched with the grid's
+// ground prior. The infrared detectors: the trained classifier (shipped model) and the
+// simulator-tuned warm blobs; each on the raw counts and on the same frame made 8-bit.
+// Run: build/bin/bench_detect  (the machine is shared: absolute times move with the load)
+#include <benchmark/benchmark.h>
+
+#include <memory>
+#include <opencv2/core/utility.hpp>
+
+#include "thermovis/detect/person_detector.hpp"
+#include "thermovis/fpga/remap.hpp"
+#include "thermovis/rectify/stereo_geometry.hpp"
+#include "thermovis/runtime/rig_io.hpp"
+#include "thermovis/runtime/scene_io.hpp"
+#include "thermovis/sim/simulated_rig.hpp"
+#include "thermovis/test/data.hpp"
+
+namespace {
+
+using namespace thermovis;
+
+struct Frame {
+  cv::Mat raw, eight_bit;  // rectified infrared, CV_16UC1 counts and CV_8UC1
+  std::unique_ptr<camera::RectifiedCamera> grid;
+};
+
+const Frame& frame() {
+  static std::unique_ptr<Frame> f;
+  if (f) return *f;
+  const auto root = test::source_root();
+  const camera::Rig rig = runtime::load_rig(root / "deploy/rigs/paper.yaml");
+  const sim::SimulatedRig simulator(rig, runtime::load_scene(root / "deploy/scenes/paper.yaml"), 1);
+  sim::FrameSet raw = simulator.allocate();
+  simulator.render(0, raw);
+  const auto grid = camera::scaled(
+      rectify::default_pair_grid(rig, rig.visible, camera::RectifiedProjection::equirectangular),
+      0.5);
+  const auto geometry = rectify::make_stereo_geometry(rig, rig.visible, grid);
+  const auto& cam = rig.camera(rig.infrared.left);
+  const fpga::FastRemapper remapper(fpga::FixedPointMap::from_float(
+      rectify::build_map(cam, geometry.T_ref_left_rect, geometry.grid, 0.0),
+      cam.model->image_size()));
+  f = std::make_unique<Frame>();
+  remapper.remap(raw[sim::Slot::infrared_left], f->raw);
+  f->eight_bit = detect::infrared_to_8bit(f->raw);
+  f->grid = std::make_unique<camera::RectifiedCamera>(geometry.grid);
+  return *f;
+}
+
+void run(benchmark::State& state, bool classifier, bool eight_bit) {
+  const Frame& f = frame();
+  const int threads = cv::getNumThreads();
+  cv::setNumThreads(1);
+  detect::PersonDetectorOptions o;
+  if (classifier) o.infrared_model = test::source_root() / "deploy/models/person_ir.yml.gz";
+  detect::PersonDetector detector(o);
+  std::size_t found = 0;
+  for (auto _ : state) {
+    found = detector.detect(eight_bit ? f.eight_bit : f.raw, cv::Mat(), f.grid.get()).size();
+  }
+  cv::setNumThreads(threads);
+  state.counters["grid_w"] = f.raw.cols;
+  state.counters["grid_h"] = f.raw.rows;
+  state.counters["boxes"] = static_cast<double>(found);
+}
+
+void BM_ClassifierRaw(benchmark::State& state) { run(state, true, false); }
+void BM_Classifier8bit(benchmark::State& state) { run(state, true, true); }
+void BM_WarmBlobsRaw(benchmark::State& state) { run(state, false, false); }
+void BM_WarmBlobs8bit(benchmark::State& state) { run(state, false, true); }
+
+BENCHMARK(BM_ClassifierRaw)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
+BENCHMARK(BM_Classifier8bit)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
+BENCHMARK(BM_WarmBlobsRaw)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
+BENCHMARK(BM_WarmBlobs8bit)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
+
+}  // namespace
+
+BENCHMARK_MAIN();
