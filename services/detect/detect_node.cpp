@@ -1,6 +1,7 @@
 #include "detect_node.hpp"
 
 #include <cmath>
+#include <stdexcept>
 #include <thread>
 
 #include "thermovis/node/frame_codec.hpp"
@@ -127,7 +128,13 @@ DetectionArray DetectNode::detect(const GridStereoFrame& infrared) {
     if (found != nullptr) fused = *found;
     fused_.drop_through(seq);
   }
-  std::vector<detect::Detection> found = stage_.stage().detect(left, fused);
+  std::vector<detect::Detection> found;
+  try {
+    found = stage_.stage().detect(left, fused);
+  } catch (const std::invalid_argument& e) {
+    throw node::FrameError("rectified infrared frame " + std::to_string(infrared.seq()) + ": " +
+                           e.what());
+  }
   // The stage returns them strongest first: the strongest fit the message.
   if (found.size() > MAX_TARGETS) found.resize(MAX_TARGETS);
 

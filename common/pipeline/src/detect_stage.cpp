@@ -10,7 +10,7 @@ DetectStage::DetectStage(const PipelineGeometry& geometry, const DetectOptions& 
 std::vector<detect::Detection> DetectStage::detect(const cv::Mat& infrared,
                                                    const cv::Mat& fused) const {
   if (infrared.type() != CV_8UC1 && infrared.type() != CV_16UC1) {
-    throw std::invalid_argument("detect: the infrared image must be MONO8 or MONO16");
+    throw std::invalid_argument("detect: infrared image: expected MONO8 or MONO16 pixels");
   }
   std::vector<detect::Detection> found = detect::detect_warm_blobs(infrared, grid_, options_.blobs);
   if (options_.hog && !fused.empty()) {
