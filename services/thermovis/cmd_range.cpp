@@ -266,7 +266,7 @@ THERMOVIS_COMMAND(
                      "(e.g. a frame folder of `thermovis scene render`)")
           ->required();
       app.add_option("--boxes", opt->boxes,
-                     "boxes JSON (default: the folder's truth.json); see README");
+                     "boxes JSON (default: the folder's truth.json); see docs/commands/range.md");
       app.add_option("--mode", opt->mode, "fused | visible | infrared")->capture_default_str();
       app.add_option("--method", opt->method, "matching: ncc | orb | akaze | sift | sgbm")
           ->capture_default_str();

@@ -66,7 +66,7 @@ class SplitPipeline {
     // 5 captures a second (THERMOVIS_LAB_RATE to measure others): each crosses a->b as two
     // 12.5 MB samples (rectified visible and infrared, the plain type's full size), 125 MB/s,
     // within the 200 MB/s of udp.xml's flow controller. An offered load above it makes frames
-    // superseded while still in flight and the results collapse (README, "Lab across hosts").
+    // superseded while still in flight and the results collapse (docs/deployment.md, lab).
     const char* rate = std::getenv("THERMOVIS_LAB_RATE");
     start("a", "thermovis-bridge",
           {"--source", "sim", "--scene", scene.string(), "--prerender", "10", "--rate",
@@ -318,7 +318,7 @@ TEST(Lab, PipelineOverThreeHostsWithADiscoveryServerAndNoMulticast) {
 // (62 MB/s) they arrive whole and in capture order. The rate of frames that got through and
 // their one-hop latency are printed. Measurement knobs: THERMOVIS_LAB_PROFILE (thermovis_udp:
 // synchronous sending), THERMOVIS_LAB_FRAME_RATE (offered captures per second; above the
-// flow controller's limit the paced profile delivers none, README "Lab across hosts").
+// flow controller's limit the paced profile delivers none, docs/deployment.md, lab).
 TEST(Lab, RawFramesCrossALinkWholeAndInOrder) {
   std::string why;
   const auto lab = Lab::make({"a", "b"}, true, why);

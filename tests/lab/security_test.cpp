@@ -182,7 +182,7 @@ TEST(Security, PipelineRunsAuthenticatedAndStrangersNeitherReadNorInject) {
                                                tv::transport::event_topic_qos(64));
   tv::transport::Writer<tv::DetectionArray> injected(*stranger, tv::transport::topics::kDetections,
                                                      tv::transport::event_topic_qos());
-  // Known issue (README, Security): a secured pipeline whose services all start at once
+  // Known issue (docs/LIMITS.md, security): a secured pipeline whose services all start at once
   // sometimes never matches its bridge and rectify-fuse (the bridge publishes, rectify-fuse
   // receives nothing; seen in about one CI run in three, cause not found). The stalled start is
   // printed with every service's counts, and the pipeline started once more; a second stall

@@ -120,7 +120,7 @@ TEST(Faults, EveryServiceKilledOrStoppedComesBackAndRangesResume) {
         EXPECT_GT(pid, 0);
         EXPECT_NE(pid, victim) << "not restarted";
       } else if (service == "bridge" && name == "rectify-fuse" && pid != before.at(name)) {
-        // Known Fast DDS 2.9 limit (README, "Faults"): a writer killed while it held its
+        // Known Fast DDS 2.9 limit (docs/services.md, faults): a writer killed while it held its
         // reader's data-sharing notification mutex (not robust) wedges it; the reader and the
         // new writer both time out on it and the supervisor restarts them.
         ++collateral;

@@ -1,5 +1,5 @@
 #pragma once
-// Topic names of the pipeline (README, "DDS topics and types"). thermovis/ranges with type
+// Topic names of the pipeline (docs/topics.md). thermovis/ranges with type
 // thermovis::RangeArray is the public contract for other DDS applications.
 namespace thermovis::transport::topics {
 
