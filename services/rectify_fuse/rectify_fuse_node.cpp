@@ -70,7 +70,7 @@ RectifyFuseNode::RectifyFuseNode(transport::Participant& participant, const came
                     geometry_out_.counters()};
               }),
       sequence_(service_name, "visible frame"),
-      infrared_held_(2) {
+      infrared_held_(1) {
   health_.set_state(HEALTH_STARTING, "grid " + std::to_string(grid_size().width) + "x" +
                                          std::to_string(grid_size().height) +
                                          ", waiting for frames");
@@ -85,10 +85,10 @@ RectifyFuseStats RectifyFuseNode::stats() const {
 
 void RectifyFuseNode::take_infrared(std::chrono::milliseconds wait) {
   if (wait.count() > 0) infrared_in_.wait_for_data(wait);
-  auto taken = std::make_shared<transport::Samples<InfraredStereoFrame>>(infrared_in_.take());
-  for (std::size_t i = 0; i < taken->size(); ++i) {
-    infrared_held_.push((*taken)[i].seq(), HeldInfrared{taken, i});
-  }
+  // One sample at a time, and one held (infrared_held_ keeps one): the reader's history holds
+  // two loans at most, and a take while both are held fails (OUT_OF_RESOURCES).
+  auto taken = std::make_shared<transport::Samples<InfraredStereoFrame>>(infrared_in_.take(1));
+  if (!taken->empty()) infrared_held_.push((*taken)[0].seq(), HeldInfrared{taken, 0});
 }
 
 void RectifyFuseNode::run() {

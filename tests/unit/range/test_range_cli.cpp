@@ -42,8 +42,10 @@ TEST(RangeCli, RangesTheRenderedPeopleInEveryMode) {
   const fs::path frame = render_frame("range_cli_modes");
   ASSERT_TRUE(fs::exists(frame / "truth.json"));
   for (const std::string mode : {"visible", "infrared", "fused"}) {
-    const auto r =
-        run_thermovis("range --images " + frame.string() + " --mode " + mode + " --json");
+    // On the visible camera's full grid: the pipeline's default half grid leaves the visible
+    // pair too few corners on some people beyond 10 m (docs/LIMITS.md).
+    const auto r = run_thermovis("range --images " + frame.string() + " --mode " + mode +
+                                 " --grid-scale 1 --json");
     ASSERT_EQ(r.exit_code, 0) << r.output;
     int near_people = 0;
     for (const auto& t : json_lines(r.output)) {
@@ -68,9 +70,11 @@ TEST(RangeCli, RangesTheRenderedPeopleInEveryMode) {
           ASSERT_TRUE(bands.contains(band)) << t;
           EXPECT_EQ(bands.at(band).at("box").size(), 4u) << t;
         }
+        // The combination uses the points of the pairs that gave a range.
         int used = 0;
         for (const char* band : {"visible", "infrared"}) {
-          used += bands.at(band).at("points_used").get<int>();
+          if (bands.at(band).at("status") == "ok")
+            used += bands.at(band).at("points_used").get<int>();
         }
         EXPECT_EQ(used, t.at("points_used").get<int>()) << t;
       }
