@@ -66,7 +66,7 @@ sign() {  # an XML document -> its S/MIME signature by the CA (what Fast DDS rea
 publishes() {
   case "$1" in
     thermovis-bridge) echo "thermovis/frames/* thermovis/health" ;;
-    thermovis-rectify-fuse) echo "thermovis/rectified/* thermovis/fused thermovis/health" ;;
+    thermovis-rectify-fuse) echo "thermovis/rectified/* thermovis/fused thermovis/geometry thermovis/health" ;;
     thermovis-detect) echo "thermovis/detections thermovis/health" ;;
     thermovis-match) echo "thermovis/matches thermovis/health" ;;
     thermovis-range) echo "thermovis/ranges thermovis/timing thermovis/health" ;;
@@ -76,9 +76,9 @@ publishes() {
 subscribes() {
   case "$1" in
     thermovis-rectify-fuse) echo "thermovis/frames/*" ;;
-    thermovis-detect) echo "thermovis/rectified/* thermovis/fused" ;;
-    thermovis-match) echo "thermovis/detections thermovis/rectified/* thermovis/fused" ;;
-    thermovis-range) echo "thermovis/matches" ;;
+    thermovis-detect) echo "thermovis/geometry thermovis/rectified/* thermovis/fused" ;;
+    thermovis-match) echo "thermovis/geometry thermovis/detections thermovis/rectified/* thermovis/fused" ;;
+    thermovis-range) echo "thermovis/geometry thermovis/matches" ;;
     thermovis-supervisor) echo "thermovis/health thermovis/timing thermovis/ranges" ;;
     thermovis-consumer) echo "thermovis/ranges" ;;
   esac
