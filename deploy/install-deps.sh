@@ -14,9 +14,14 @@ packages=(
   clang libclang-rt-14-dev
   libcpp-httplib-dev chromium chromium-driver
   libzstd-dev zlib1g-dev
-  nodejs npm  # foxglove_client_test: Foxglove's own decoders (npm packages) read a recording
   openssl
 )
+# foxglove_client_test: Foxglove's own decoders (npm packages) read a recording. A machine whose
+# Node.js already brings npm (another distribution's nodejs package includes it, and conflicts
+# with Debian's npm) keeps its own.
+if ! command -v node >/dev/null || ! command -v npm >/dev/null; then
+  packages+=(nodejs npm)
+fi
 
 missing=()
 for pkg in "${packages[@]}"; do
