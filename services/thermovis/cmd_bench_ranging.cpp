@@ -222,16 +222,15 @@ int run_bench_ranging(const Options& opt) {
         Cell& cell = cells[{nominal, mode}];
         // The box as the pipeline has it: on the visible image for the visible pair, on the
         // infrared one (where the detector finds people) for the infrared pair and for both.
-        const bool infrared_box = mode != Mode::visible;
-        const auto& raw_box = truth.boxes[static_cast<size_t>(
-            infrared_box ? sim::Slot::infrared_left : sim::Slot::visible_left)];
-        if (!raw_box) {
+        // The silhouette's box on the grid (what the pipeline's detector finds), on the
+        // infrared image where the infrared pair is ranged.
+        const cv::Rect box = pl::points_box_on_grid(
+            pipeline.geometry(), mode != Mode::visible ? pl::Band::infrared : pl::Band::visible,
+            truth.surface_points_m);
+        if (box.empty()) {
           ++cell.failures;
           continue;
         }
-        const cv::Rect box = pl::raw_box_on_grid(
-            pipeline.geometry(), rig, infrared_box ? pl::Band::infrared : pl::Band::visible,
-            raw_box->x_min, raw_box->y_min, raw_box->x_max, raw_box->y_max);
         const pl::CaptureTarget r = pipeline.range(capture, box, "person", band_choice(mode));
         if (!r.ranged.ok()) {
           ++cell.failures;

@@ -1,5 +1,6 @@
 #include "thermovis/pipeline/geometry.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -158,6 +159,28 @@ cv::Rect raw_box_on_grid(const PipelineGeometry& geometry, const camera::Rig& ri
   return rectify::raw_box_on_grid(rig.camera(pair.left_camera), pair.T_ref_left_rect,
                                   camera::RectifiedCamera(geometry.grid), x_min, y_min, x_max,
                                   y_max);
+}
+
+cv::Rect points_box_on_grid(const PipelineGeometry& geometry, Band band,
+                            const std::vector<Eigen::Vector3d>& points_m) {
+  const PairGeometry& pair = band == Band::infrared ? geometry.infrared : geometry.visible;
+  const Eigen::Isometry3d T_rect_reporting =
+      pair.T_ref_left_rect.inverse() * geometry.T_ref_reporting;
+  const camera::RectifiedCamera grid(geometry.grid);
+  double lo_x = 1e30, lo_y = 1e30, hi_x = -1e30, hi_y = -1e30;
+  for (const Eigen::Vector3d& p : points_m) {
+    Eigen::Vector2d q;
+    if (!grid.project(T_rect_reporting * p, q)) continue;
+    lo_x = std::min(lo_x, q.x());
+    lo_y = std::min(lo_y, q.y());
+    hi_x = std::max(hi_x, q.x());
+    hi_y = std::max(hi_y, q.y());
+  }
+  if (lo_x > hi_x) return {};
+  const int x0 = static_cast<int>(std::floor(lo_x)), y0 = static_cast<int>(std::floor(lo_y));
+  return cv::Rect(x0, y0, static_cast<int>(std::ceil(hi_x)) - x0 + 1,
+                  static_cast<int>(std::ceil(hi_y)) - y0 + 1) &
+         cv::Rect(0, 0, geometry.grid.width, geometry.grid.height);
 }
 
 }  // namespace thermovis::pipeline

@@ -218,6 +218,10 @@ std::vector<TargetTruth> SimulatedRig::truth(std::int64_t frame_index) const {
     const Eigen::Vector3d foot = foot_position(m.scene, t.spec, t_s);
     truth.position_m = m.T_visible_left_world * centre_position(m.scene, t.spec, t_s);
     truth.distance_m = truth.position_m.norm();
+    truth.surface_points_m.reserve(t.silhouette_points.size());
+    for (const Eigen::Vector3d& p : t.silhouette_points) {
+      truth.surface_points_m.push_back(m.T_visible_left_world * (foot + t.R_world_local * p));
+    }
     for (int i = 0; i < kSlotCount; ++i) {
       const CameraLayers& c = m.cams[static_cast<std::size_t>(i)];
       const auto extent = m.renderer.projected_extent(c, t.silhouette_points, t, foot);

@@ -18,6 +18,7 @@
 #include <Eigen/Geometry>
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "thermovis/camera/rectified.hpp"
 #include "thermovis/camera/rig.hpp"
@@ -83,5 +84,12 @@ double max_disparity(const PipelineGeometry& geometry, double min_distance_m);
 // the grid's frame (at infinity, as the registration). Empty when none reaches the grid.
 cv::Rect raw_box_on_grid(const PipelineGeometry& geometry, const camera::Rig& rig, Band band,
                          double x_min, double y_min, double x_max, double y_max);
+
+// The box of points (the left visible camera's frame, m: the reporting frame) in `band`'s left
+// image of the grid: each point projected from that pair's left centre. Empty when none is in
+// front of the grid. For a target's known surface points this is its silhouette's box on the
+// grid, what a detector on the grid finds; raw_box_on_grid of the raw silhouette's box is wider.
+cv::Rect points_box_on_grid(const PipelineGeometry& geometry, Band band,
+                            const std::vector<Eigen::Vector3d>& points_m);
 
 }  // namespace thermovis::pipeline

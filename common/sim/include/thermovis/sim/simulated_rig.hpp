@@ -59,6 +59,11 @@ struct TargetTruth {
   Eigen::Vector3d position_m = Eigen::Vector3d::Zero();
   double distance_m = 0.0;                                // |position_m|
   std::array<std::optional<TruthBox>, kSlotCount> boxes;  // empty where it is not in the image
+  // Points on the target's surface (left visible camera's frame, m), dense enough that their
+  // projected extent is the silhouette's to a fraction of a pixel beyond about 2 m: `boxes` are
+  // their extents in each raw image. A rectified image's box is theirs too (projected there);
+  // a raw box carried onto another grid is wider, by the turn of the box's border.
+  std::vector<Eigen::Vector3d> surface_points_m;
 };
 
 // A file that keeps what a SimulatedRig's construction computes (each pixel's ray and the static
