@@ -5,12 +5,15 @@
 #include <cmath>
 #include <iomanip>
 #include <iostream>
+#include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
 
+#include "capture_floor.hpp"
 #include "command.hpp"
 #include "pipeline_session.hpp"
 #include "thermovis/node/service.hpp"
@@ -36,6 +39,46 @@ bool run_for(thermovis::cli::PipelineSession& session, double seconds) {
   return true;
 }
 
+// CPU of each process over the measurement per capture (the camera's 50 Hz slots the
+// measurement spanned: what the machine spends per slot, whether the capture was answered or
+// dropped), and the floor beside it, measured here after the pipeline stopped on one capture of
+// the simulated rig and the geometry's grid.
+struct CpuBudget {
+  std::uint64_t captures = 0;                    // captures the measurement spanned
+  std::uint64_t answered = 0;                    // of which reached the output
+  std::map<std::string, double> per_service_ms;  // CPU ms per capture (NaN: unknown)
+  double pipeline_ms = std::nan("");             // every service but the bridge (the camera's cost)
+  double floor_ms = std::nan("");
+  double linear_floor_ms = std::nan("");  // the same with INTER_LINEAR (capture_floor.hpp)
+  cv::Size grid;
+};
+
+CpuBudget cpu_budget(const thermovis::cli::PipelineSession& session,
+                     const std::vector<thermovis::cli::ProcessCpu>& cpu,
+                     const std::optional<thermovis::pipeline::PipelineGeometry>& geometry,
+                     const thermovis::supervisor::LatencySummary& latency) {
+  CpuBudget b;
+  b.answered = latency.frames;
+  if (latency.frames > 0) b.captures = latency.last_seq - latency.first_seq + 1;
+  double pipeline = 0;
+  for (const auto& p : cpu) {
+    const double ms =
+        b.captures > 0 ? 1e3 * p.cpu_s / static_cast<double>(b.captures) : std::nan("");
+    b.per_service_ms[p.service] = ms;
+    if (p.service != "bridge") pipeline += ms;
+  }
+  if (b.captures > 0) b.pipeline_ms = pipeline;
+  if (geometry) {
+    b.grid = geometry->grid_size();
+    thermovis::sim::FrameSet frames = session.simulated().allocate();
+    session.simulated().render(0, frames);
+    b.floor_ms = thermovis::cli::capture_floor_cpu_ms(frames.images, b.grid);
+    b.linear_floor_ms =
+        thermovis::cli::capture_floor_cpu_ms(frames.images, b.grid, 5, cv::INTER_LINEAR);
+  }
+  return b;
+}
+
 int run_bench(const Options& opt) {
   thermovis::node::install_stop_handlers();
   thermovis::cli::PipelineSession session(opt.session);
@@ -55,8 +98,10 @@ int run_bench(const Options& opt) {
   }
   if (running) run_for(session, slice);
   const auto cpu = session.cpu();  // before stopping: the processes must still be there
+  const auto geometry = session.geometry();
   session.stop();
   const auto latency = session.latency();
+  const CpuBudget budget = cpu_budget(session, cpu, geometry, latency);
   const auto errors = session.errors();
   if (opt.json) {
     auto j = thermovis::cli::summary_json(latency, errors);
@@ -70,6 +115,16 @@ int run_bench(const Options& opt) {
           {"rss_mb", p.rss_mb}};
     }
     j["processes"] = processes;
+    const auto number = [](double v) {
+      return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json();
+    };
+    nlohmann::json per_capture = nlohmann::json::object();
+    for (const auto& [service, ms] : budget.per_service_ms) per_capture[service] = number(ms);
+    j["cpu_ms_per_capture"] = per_capture;
+    j["pipeline_cpu_ms_per_capture"] = number(budget.pipeline_ms);
+    j["floor_cpu_ms"] = number(budget.floor_ms);
+    j["pipeline_over_floor"] = number(budget.pipeline_ms / budget.floor_ms);
+    j["linear_floor_cpu_ms"] = number(budget.linear_floor_ms);
     nlohmann::json outages = nlohmann::json::object();
     for (const auto& o : session.outages()) {
       outages[o.service] = o.recovered ? nlohmann::json{{"outage_ms", o.outage_ms},
@@ -85,6 +140,19 @@ int run_bench(const Options& opt) {
                 << std::fixed << std::setprecision(1) << std::setw(6) << p.cpu_percent << " %  rss "
                 << std::setw(7) << p.rss_mb << " MB\n";
     }
+    std::cout << "  CPU per capture (" << budget.captures << " captures, " << budget.answered
+              << " answered):";
+    for (const auto& [service, ms] : budget.per_service_ms) {
+      std::cout << " " << service << " " << std::setprecision(1) << ms << " ms";
+    }
+    std::cout << "\n  pipeline without the bridge (the camera's cost) " << budget.pipeline_ms
+              << " ms; floor " << std::setprecision(2) << budget.floor_ms
+              << " ms (one copy of every image of a capture + cv::resize INTER_AREA of each to the "
+              << budget.grid.width << "x" << budget.grid.height
+              << " grid): " << std::setprecision(1) << budget.pipeline_ms / budget.floor_ms
+              << " x floor; with INTER_LINEAR " << std::setprecision(2) << budget.linear_floor_ms
+              << " ms: " << std::setprecision(1) << budget.pipeline_ms / budget.linear_floor_ms
+              << " x\n";
     for (const auto& o : session.outages()) {
       if (o.recovered) {
         std::cout << "  killed " << std::setw(12) << std::left << o.service << std::right

@@ -15,6 +15,8 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "thermovis/node/frame_codec.hpp"
+#include "thermovis/node/geometry_topic.hpp"
 #include "thermovis/node/service.hpp"
 #include "thermovis/process/manifest_io.hpp"
 #include "thermovis/runtime/rig_io.hpp"
@@ -96,6 +98,7 @@ PipelineSession::PipelineSession(const SessionOptions& options) : options_(optio
   common.domain = options.domain;
   common.profile = profile;
   participant_ = node::make_participant(common);
+  geometry_ = std::make_unique<node::GeometrySubscriber>(*participant_);
   const auto manifest =
       process::load_manifest(options.manifest.empty() ? runtime::shipped_file("pipeline.yaml")
                                                       : std::filesystem::path(options.manifest));
@@ -108,6 +111,15 @@ void PipelineSession::start() { supervisor_->start(); }
 
 void PipelineSession::stop() {
   if (supervisor_) supervisor_->stop();
+}
+
+std::optional<pipeline::PipelineGeometry> PipelineSession::geometry() {
+  try {
+    geometry_->poll();
+  } catch (const node::FrameError&) {
+    // A bad geometry on the topic: the one held (if any) stays; the services report it.
+  }
+  return geometry_->geometry();
 }
 
 std::optional<sim::TargetTruth> PipelineSession::truth_for(std::uint64_t seq,
@@ -195,8 +207,9 @@ std::vector<ProcessCpu> PipelineSession::cpu() const {
       const CpuMark from = mark == cpu_marks_.end() ? CpuMark{} : mark->second;
       const double wall = wall_seconds() - from.wall_s;
       // Without a mark (restarted since) the figure is over the process's life: unknown here.
-      p.cpu_percent = mark == cpu_marks_.end() || wall <= 0 ? std::nan("")
-                                                            : 100.0 * (cpu_s - from.cpu_s) / wall;
+      const bool known = mark != cpu_marks_.end() && wall > 0;
+      p.cpu_s = known ? cpu_s - from.cpu_s : std::nan("");
+      p.cpu_percent = known ? 100.0 * p.cpu_s / wall : std::nan("");
       p.rss_mb = rss / 1e6;
     }
     out.push_back(p);

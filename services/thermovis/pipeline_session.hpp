@@ -13,7 +13,12 @@
 #include <vector>
 
 #include "supervisor.hpp"
+#include "thermovis/pipeline/geometry.hpp"
 #include "thermovis/sim/simulated_rig.hpp"
+
+namespace thermovis::node {
+class GeometrySubscriber;
+}
 
 namespace thermovis::cli {
 
@@ -61,6 +66,7 @@ struct RangeErrorSummary {
 struct ProcessCpu {
   std::string service;
   double cpu_percent = 0.0;  // user + system time over wall time since the last mark, % of a core
+  double cpu_s = 0.0;        // user + system time since the last mark, s (NaN: unknown)
   double rss_mb = 0.0;       // resident memory now
 };
 
@@ -96,6 +102,10 @@ class PipelineSession {
   }
   std::vector<process::ServiceStatus> services() const { return supervisor_->services(); }
   double deadline_ms() const { return options_.latency_deadline_ms; }
+  // The grid geometry rectify-fuse publishes (thermovis/geometry), once it has arrived.
+  std::optional<pipeline::PipelineGeometry> geometry();
+  // The simulated rig the bridge renders (same rig and scene).
+  const sim::SimulatedRig& simulated() const { return *sim_; }
 
  private:
   std::optional<sim::TargetTruth> truth_for(std::uint64_t seq, const TargetRange& range);
@@ -104,6 +114,7 @@ class PipelineSession {
   std::unique_ptr<sim::SimulatedRig> sim_;  // for the truth only
   std::unique_ptr<transport::Participant> participant_;
   std::unique_ptr<supervisor::Supervisor> supervisor_;
+  std::unique_ptr<node::GeometrySubscriber> geometry_;
   std::uint64_t frames_ = 0;
   std::vector<CheckedRange> checked_;
   struct CpuMark {

@@ -1,0 +1,41 @@
+#pragma once
+// The CPU floor of one capture, the yardstick of the pipeline's CPU budget (`bench pipeline`,
+// `bench stages`): one copy of every image of the capture plus cv::resize(INTER_AREA) of each
+// to the grid, on this thread. What any frame path must at least spend to read its images once
+// and write them on the grid.
+#include <algorithm>
+#include <ctime>
+#include <opencv2/core/mat.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace thermovis::cli {
+
+// This thread's CPU time, ms.
+inline double thread_cpu_ms() {
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) * 1e-6;
+}
+
+// CPU ms of the floor for one capture's images (a range of cv::Mat) on a grid of `grid` px,
+// the best of `repeats` runs (the first allocates the outputs; the machine is shared).
+// OpenCV 4.6's INTER_AREA is vectorised only for whole-number ratios; onto a grid of another
+// size it runs a generic weighted sum, so `interpolation` INTER_LINEAR gives the tighter floor
+// (the bench prints both).
+template <class Images>
+double capture_floor_cpu_ms(const Images& images, cv::Size grid, int repeats = 5,
+                            int interpolation = cv::INTER_AREA) {
+  cv::Mat copy, resized;
+  double best = 1e300;
+  for (int k = 0; k < repeats; ++k) {
+    const double start = thread_cpu_ms();
+    for (const cv::Mat& image : images) {
+      image.copyTo(copy);
+      cv::resize(image, resized, grid, 0, 0, interpolation);
+    }
+    best = std::min(best, thread_cpu_ms() - start);
+  }
+  return best;
+}
+
+}  // namespace thermovis::cli
