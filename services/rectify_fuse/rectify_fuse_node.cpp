@@ -44,6 +44,16 @@ pipeline::PipelineGeometry grid_geometry(const camera::Rig& rig, const pipeline:
   return g;
 }
 
+// A grid frame's header from its capture's visible frame, with this stage's stamp.
+void copy_header(GridStereoFrame& to, const VisibleStereoFrame& from, std::uint32_t geometry_id,
+                 std::int64_t since_ns) {
+  to.seq(from.seq());
+  to.capture_time_ns(from.capture_time_ns());
+  to.stamps(from.stamps());
+  to.geometry_id(geometry_id);
+  transport::append_stamp(to.stamps(), STAGE_RECTIFY_FUSE, since_ns, transport::now_ns());
+}
+
 }  // namespace
 
 RectifyFuseNode::RectifyFuseNode(transport::Participant& participant, const camera::Rig& rig,
@@ -121,23 +131,16 @@ void RectifyFuseNode::run() {
     }
     infrared_held_.drop_through(vis.seq());  // the loans go back to the bridge's pool
   }
-  health_.set_state(HEALTH_STOPPING, "processed " + std::to_string(stats_.processed));
+  health_.set_state(HEALTH_STOPPING, "processed " + std::to_string(stats_.processed) + ", fused " +
+                                         std::to_string(stats_.fused));
 }
 
 void RectifyFuseNode::process(const VisibleStereoFrame& visible,
                               const InfraredStereoFrame& infrared) {
   const std::int64_t start_ns = transport::now_ns();
   const cv::Size grid = grid_size();
-  auto copy_header = [&](GridStereoFrame& to, std::int64_t since_ns) {
-    to.seq(visible.seq());
-    to.capture_time_ns(visible.capture_time_ns());
-    to.stamps(visible.stamps());
-    to.geometry_id(geometry_id_);
-    transport::append_stamp(to.stamps(), STAGE_RECTIFY_FUSE, since_ns, transport::now_ns());
-  };
   auto out_visible = rectified_visible_out_.loan();
   auto out_infrared = rectified_infrared_out_.loan();
-  auto out_fused = fused_out_.loan();
   // The rectified pairs first, infrared before visible: detection works on the infrared alone
   // and starts while the visible pair is rectified; matching needs both. With parallel_bands
   // the visible pair is rectified on a second thread meanwhile (its remap costs more than the
@@ -160,18 +163,34 @@ void RectifyFuseNode::process(const VisibleStereoFrame& visible,
     stage_.rectify_infrared(eye, node::view(infrared, eye), out);
   }
   out_infrared->eyes(EYES_BOTH);
-  copy_header(*out_infrared, start_ns);
+  copy_header(*out_infrared, visible, geometry_id_, start_ns);
   rectified_infrared_out_.publish(std::move(out_infrared));
   if (visible_done.valid()) {
     visible_done.get();  // rethrows a bad visible frame's error
   } else {
     rectify_visible();
   }
-  copy_header(*out_visible, start_ns);
+  copy_header(*out_visible, visible, geometry_id_, start_ns);
   rectified_visible_out_.publish(std::move(out_visible));
   // Reading the published samples stays safe: this writer reuses a pool slot only at its next
   // loan, which comes with the next capture.
+  fuse(rect_infrared, rect_visible, visible);
+}
+
+void RectifyFuseNode::fuse(const std::array<cv::Mat, 2>& rect_infrared,
+                           const std::array<cv::Mat, 2>& rect_visible,
+                           const VisibleStereoFrame& visible) {
+  if (fused_out_.counters().matched == 0) {
+    // The last reader has gone: a new writer, so that DEADLINE QoS does not count the periods
+    // nobody reads as offered and missed (the old writer's instance keeps its deadline timer).
+    if (fused_had_readers_) fused_out_.recreate();
+    fused_had_readers_ = false;
+    return;
+  }
+  fused_had_readers_ = true;
   const std::int64_t fusion_start_ns = transport::now_ns();
+  auto out_fused = fused_out_.loan();
+  const cv::Size grid = grid_size();
   const int fused_eyes = config_.fuse_right_eye ? 2 : 1;
   for (int i = 0; i < fused_eyes; ++i) {
     const Eye eye = i == 0 ? Eye::left : Eye::right;
@@ -181,8 +200,9 @@ void RectifyFuseNode::process(const VisibleStereoFrame& visible,
                 rect_visible[static_cast<std::size_t>(i)], fused);
   }
   out_fused->eyes(config_.fuse_right_eye ? EYES_BOTH : EYES_LEFT);
-  copy_header(*out_fused, fusion_start_ns);
+  copy_header(*out_fused, visible, geometry_id_, fusion_start_ns);
   fused_out_.publish(std::move(out_fused));
+  ++stats_.fused;
 }
 
 }  // namespace thermovis::rectify_fuse

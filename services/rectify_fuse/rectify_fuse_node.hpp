@@ -4,7 +4,10 @@
 // rectified visible (BGR8), rectified infrared (MONO16 raw counts) and fused (BGR8; left eye, both
 // with fuse_right_eye). Publishes the grid's geometry on thermovis/geometry (latched) and stamps
 // every grid frame with its id. Only the newest capture is processed: older ones waiting are
-// dropped and counted.
+// dropped and counted. The fusion runs only while thermovis/fused has a reader (the display, a
+// recording, fused-band matching, another application): in the default pipeline nothing reads
+// it, and it was a third of this service's CPU.
+#include <array>
 #include <chrono>
 #include <memory>
 
@@ -36,6 +39,7 @@ struct RectifyFuseStats {
   std::uint64_t dropped = 0;   // captures superseded, or without their infrared partner
   std::uint64_t bad = 0;       // frames rejected (bad header, size mismatch, out of order)
   std::uint64_t repeated = 0;  // captures received again, skipped
+  std::uint64_t fused = 0;     // processed captures fused (only while thermovis/fused has a reader)
 };
 
 class RectifyFuseNode {
@@ -55,6 +59,9 @@ class RectifyFuseNode {
   };
   void take_infrared(std::chrono::milliseconds wait);
   void process(const VisibleStereoFrame& visible, const InfraredStereoFrame& infrared);
+  // The fused frame of a processed capture, when thermovis/fused has a reader.
+  void fuse(const std::array<cv::Mat, 2>& rect_infrared, const std::array<cv::Mat, 2>& rect_visible,
+            const VisibleStereoFrame& visible);
 
   RectifyFuseConfig config_;
   pipeline::RectifyFuseStage stage_;
@@ -69,6 +76,8 @@ class RectifyFuseNode {
   RectifyFuseStats stats_;
   node::FrameSequence sequence_;  // of the visible frames taken
   node::SeqBuffer<HeldInfrared> infrared_held_;
+  bool fused_had_readers_ =
+      false;  // thermovis/fused was written for a reader since its writer was made
 };
 
 }  // namespace thermovis::rectify_fuse

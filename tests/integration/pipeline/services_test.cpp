@@ -297,21 +297,16 @@ TEST(Services, MatchReportsABadDetectionAndServesTheNextGoodOne) {
   EXPECT_EQ(match.wait(20s), 0) << match.log();
 }
 
-TEST(Services, RectifyFuseReportsAWrongSizedFrameAndServesTheNextGoodOne) {
-  Harness h(tv::test::private_domain());
-  ChildProcess& rf = h.start("thermovis-rectify-fuse");
-  tv::transport::Writer<tv::VisibleStereoFrame> visible(h.participant(), topics::kVisibleFrames,
-                                                        tv::transport::frame_topic_qos());
-  tv::transport::Writer<tv::InfraredStereoFrame> infrared(h.participant(), topics::kInfraredFrames,
-                                                          tv::transport::frame_topic_qos());
-  tv::transport::Reader<tv::GridStereoFrame> fused(h.participant(), topics::kFused,
-                                                   tv::transport::frame_topic_qos());
-  ASSERT_TRUE(h.wait_health("thermovis-rectify-fuse", waiting_for_input, 120s)) << rf.log();
-  ASSERT_TRUE(visible.wait_for_readers(1, 10000ms));
-  ASSERT_TRUE(infrared.wait_for_readers(1, 10000ms));
-  ASSERT_TRUE(fused.wait_for_writers(1, 10000ms));
-
-  auto publish = [&](std::uint64_t seq, cv::Size visible_size) {
+// The bridge's two raw frame topics, publishing one capture: uniform infrared and visible
+// pairs, the visible one's header saying `visible_size` (its pixels fit the frame type).
+struct RawCaptures {
+  explicit RawCaptures(tv::transport::Participant& participant)
+      : visible(participant, topics::kVisibleFrames, tv::transport::frame_topic_qos()),
+        infrared(participant, topics::kInfraredFrames, tv::transport::frame_topic_qos()) {}
+  bool wait_for_rectify_fuse() {
+    return visible.wait_for_readers(1, 10000ms) && infrared.wait_for_readers(1, 10000ms);
+  }
+  void publish(std::uint64_t seq, cv::Size visible_size = {1920, 1080}) {
     auto ir = infrared.loan();
     cv::Mat il = tv::node::prepare(*ir, tv::node::Eye::left, {1024, 768});
     cv::Mat ir_right = tv::node::prepare(*ir, tv::node::Eye::right, {1024, 768});
@@ -332,14 +327,27 @@ TEST(Services, RectifyFuseReportsAWrongSizedFrameAndServesTheNextGoodOne) {
     vis->stamps(tv::PipelineStamps{});
     infrared.publish(std::move(ir));
     visible.publish(std::move(vis));
-  };
-  publish(1, {4000, 1080});  // does not fit the frame type
+  }
+  tv::transport::Writer<tv::VisibleStereoFrame> visible;
+  tv::transport::Writer<tv::InfraredStereoFrame> infrared;
+};
+
+TEST(Services, RectifyFuseReportsAWrongSizedFrameAndServesTheNextGoodOne) {
+  Harness h(tv::test::private_domain());
+  ChildProcess& rf = h.start("thermovis-rectify-fuse");
+  RawCaptures raw(h.participant());
+  tv::transport::Reader<tv::GridStereoFrame> fused(h.participant(), topics::kFused,
+                                                   tv::transport::frame_topic_qos());
+  ASSERT_TRUE(h.wait_health("thermovis-rectify-fuse", waiting_for_input, 120s)) << rf.log();
+  ASSERT_TRUE(raw.wait_for_rectify_fuse());
+  ASSERT_TRUE(fused.wait_for_writers(1, 10000ms));
+  raw.publish(1, {4000, 1080});  // does not fit the frame type
   const auto reported = h.wait_health(
       "thermovis-rectify-fuse", [](const tv::Health& x) { return x.errors() >= 1; }, 30s);
   ASSERT_TRUE(reported) << rf.log();
   EXPECT_NE(reported->message().to_string().find("4000x1080"), std::string::npos)
       << reported->message().to_string();
-  publish(2, {1920, 1080});
+  raw.publish(2);
   cv::Size fused_size;
   tv::EyeSet fused_eyes = tv::EYES_BOTH;
   cv::Scalar fused_mean;
@@ -357,6 +365,49 @@ TEST(Services, RectifyFuseReportsAWrongSizedFrameAndServesTheNextGoodOne) {
   // The display's frame: the left eye fused (a uniform grey scene inside the field), no right.
   EXPECT_EQ(fused_eyes, tv::EYES_LEFT);
   EXPECT_GT(fused_mean[0] + fused_mean[1] + fused_mean[2], 30.0);
+  rf.signal(SIGTERM);
+  EXPECT_EQ(rf.wait(20s), 0) << rf.log();
+}
+
+// Nothing reads thermovis/fused in the default pipeline: rectify-fuse rectifies every capture
+// but fuses only while the fused topic has a reader, and fuses again as soon as one comes.
+TEST(Services, RectifyFuseFusesOnlyWhileTheFusedTopicHasAReader) {
+  Harness h(tv::test::private_domain());
+  ChildProcess& rf = h.start("thermovis-rectify-fuse");
+  RawCaptures raw(h.participant());
+  tv::transport::Reader<tv::GridStereoFrame> rectified(h.participant(), topics::kRectifiedVisible,
+                                                       tv::transport::frame_topic_qos());
+  ASSERT_TRUE(h.wait_health("thermovis-rectify-fuse", waiting_for_input, 120s)) << rf.log();
+  ASSERT_TRUE(raw.wait_for_rectify_fuse());
+  ASSERT_TRUE(rectified.wait_for_writers(1, 10000ms));
+  const auto samples_on = [](const tv::Health& health, const std::string& topic) {
+    for (const auto& t : health.topics())
+      if (t.topic().to_string() == topic) return static_cast<long long>(t.samples());
+    return -1LL;
+  };
+  for (std::uint64_t seq = 1; seq <= 3; ++seq) {
+    raw.publish(seq);
+    ASSERT_TRUE(receive<tv::GridStereoFrame>(
+        rectified, [&](const tv::GridStereoFrame& f) { return f.seq() == seq; }, 30s))
+        << rf.log();
+  }
+  const auto unread = h.wait_health(
+      "thermovis-rectify-fuse",
+      [&](const tv::Health& x) { return samples_on(x, topics::kRectifiedVisible) >= 3; }, 30s);
+  ASSERT_TRUE(unread) << rf.log();
+  EXPECT_EQ(samples_on(*unread, topics::kFused), 0) << rf.log();
+
+  tv::transport::Reader<tv::GridStereoFrame> fused(h.participant(), topics::kFused,
+                                                   tv::transport::frame_topic_qos());
+  ASSERT_TRUE(fused.wait_for_writers(1, 10000ms));
+  // The writer learns of the reader a moment after the reader of the writer: a few captures.
+  bool received = false;
+  for (std::uint64_t seq = 4; seq <= 40 && !received; ++seq) {
+    raw.publish(seq);
+    received = receive<tv::GridStereoFrame>(
+        fused, [&](const tv::GridStereoFrame& f) { return f.seq() == seq; }, 1s);
+  }
+  EXPECT_TRUE(received) << rf.log();
   rf.signal(SIGTERM);
   EXPECT_EQ(rf.wait(20s), 0) << rf.log();
 }
