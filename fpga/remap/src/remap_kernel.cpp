@@ -1,0 +1,229 @@
+// The vector kernel of FastRemapper, compiled once per instruction set Highway targets on this
+// architecture (foreach_target.h re-includes this file) and chosen at run time (AVX2 on the
+// reference machine, SSE4/SSSE3 or plain C++ elsewhere): bit for bit the datapath of
+// remap_reference (remap.hpp), on int32 lanes.
+//
+// Per lane (one output pixel): the source byte offset of the top-left neighbour is
+// y0 * step + x0 * bytes_per_pixel; one word per row (and channel) brings both horizontal
+// neighbours (8-bit grey: bytes 0 and 1 of a 32-bit word, 16-bit: its halves, BGR: bytes 0-2
+// and 3-5 of a 64-bit word; x86 and every Highway target are little-endian). The bilinear sum
+// is done
+// separably,
+//   top = 32 p00 + (p01 - p00) fx,  bottom = 32 p10 + (p11 - p10) fx,
+//   acc = 32 top + (bottom - top) fy,
+// which is the same integer as the four-weight sum of the model (1/1024 units), so the
+// rounding rules of remap.hpp apply unchanged.
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "remap_kernel.cpp"
+#include <hwy/foreach_target.h>  // IWYU pragma: keep
+// foreach_target.h must come before highway.h.
+#include <hwy/highway.h>
+
+#include <hwy/cache_control.h>
+#include <cstring>
+
+#include "remap_kernel.hpp"
+
+HWY_BEFORE_NAMESPACE();
+namespace thermovis::fpga::detail {
+namespace HWY_NAMESPACE {
+
+namespace hn = hwy::HWY_NAMESPACE;
+
+// A vector of words (uint32 or uint64) read at source + offsets[pixel(lane)], by scalar loads
+// combined into halves and wholes. On the reference machine (AMD Zen 3, virtualised) a gather
+// instruction costs about 16-20 cycles whatever its width; loading lane by lane made the BGR
+// kernel ~1.3x faster (its 64-bit words come in pixel pairs, not contiguous lanes) and the
+// 32-bit kernels no slower, so one loader serves all.
+template <class DW, class PixelOfLane>
+HWY_INLINE hn::Vec<DW> load_words(DW dw, const std::uint8_t* source, const std::int32_t* offsets,
+                                  PixelOfLane pixel_of_lane, int first_lane = 0) {
+  using Word = hn::TFromD<DW>;
+  constexpr std::size_t kLanes = hn::MaxLanes(DW());
+#if HWY_TARGET == HWY_SCALAR
+  static_assert(kLanes == 1, "the scalar target has single lanes");
+#else
+  if constexpr (kLanes > 1) {
+    const hn::Half<DW> dhalf;
+    constexpr int kHalf = static_cast<int>(kLanes / 2);
+    return hn::Combine(dw, load_words(dhalf, source, offsets, pixel_of_lane, first_lane + kHalf),
+                       load_words(dhalf, source, offsets, pixel_of_lane, first_lane));
+  }
+#endif
+  {
+    Word word;
+    std::memcpy(&word, source + offsets[pixel_of_lane(first_lane)], sizeof(Word));
+    return hn::Set(dw, word);
+  }
+}
+
+// The horizontal neighbours of Lanes(d) pixels on one source row, channel by channel: per
+// channel one 32-bit word per pixel, holding the left sample in its low bytes and the right
+// one kPixelBytes further (any vector size, the tail's single lanes included).
+template <typename Sample, int Channels, class D, class V = hn::Vec<D>>
+HWY_INLINE void load_pairs_by_word(D d, const std::uint8_t* source, const std::int32_t* offsets,
+                                   V* left, V* right) {
+  constexpr int kPixelBytes = static_cast<int>(sizeof(Sample)) * Channels;
+  const hn::Rebind<std::uint32_t, D> du32;
+  const V sample_mask = hn::Set(d, sizeof(Sample) == 1 ? 0xff : 0xffff);
+  const auto same_pixel = [](int lane) { return lane; };
+  for (int c = 0; c < Channels; ++c) {
+    const V word = hn::BitCast(
+        d, load_words(du32, source + c * static_cast<int>(sizeof(Sample)), offsets, same_pixel));
+    left[c] = hn::And(word, sample_mask);
+    right[c] = hn::And(hn::ShiftRight<8 * kPixelBytes>(word), sample_mask);
+  }
+}
+
+#if HWY_TARGET != HWY_SCALAR
+// The same for BGR with vectors of at least 4 lanes: one 64-bit word brings both neighbours of
+// a pixel (bytes B G R B' G' R', 6 of 8), two loads per pixel and row instead of three. Vector
+// A takes the even pairs of pixels (0, 1, 4, 5, ...), B the odd pairs (2, 3, 6, 7, ...), so
+// that one byte shuffle per 128-bit block puts each pixel's sample back in its own int32 lane.
+template <class D, class V = hn::Vec<D>>
+HWY_INLINE void load_bgr_pairs_by_quad(D d, const std::uint8_t* source, const std::int32_t* offsets,
+                                       V* left, V* right) {
+  const hn::Repartition<std::uint64_t, D> du64;
+  const hn::Repartition<std::uint8_t, D> du8;
+  // u64 lane j of A is pixel 4 (j / 2) + j % 2; of B, two pixels further.
+  const auto a = hn::BitCast(
+      du8, load_words(du64, source, offsets, [](int j) { return 4 * (j / 2) + j % 2; }));
+  const auto b = hn::BitCast(
+      du8, load_words(du64, source, offsets, [](int j) { return 4 * (j / 2) + j % 2 + 2; }));
+  // Per 128-bit block: A holds pixels 0 and 1 of the block's four (bytes 0-7, 8-15), B pixels
+  // 2 and 3. Byte k of a pixel's word goes to the low byte of its int32 lane; 0x80 gives 0.
+  for (int k = 0; k < 6; ++k) {
+    const auto u = static_cast<std::uint8_t>(k);
+    const auto v = static_cast<std::uint8_t>(8 + k);
+    constexpr std::uint8_t z = 0x80;
+    alignas(16) const std::uint8_t from_a[16] = {u, z, z, z, v, z, z, z, z, z, z, z, z, z, z, z};
+    alignas(16) const std::uint8_t from_b[16] = {z, z, z, z, z, z, z, z, u, z, z, z, v, z, z, z};
+    const V sample =
+        hn::BitCast(d, hn::Or(hn::TableLookupBytesOr0(a, hn::LoadDup128(du8, from_a)),
+                              hn::TableLookupBytesOr0(b, hn::LoadDup128(du8, from_b))));
+    (k < 3 ? left[k] : right[k - 3]) = sample;
+  }
+}
+#endif
+
+// Samples Lanes(d) output pixels from pixel `i` of the run.
+template <typename Sample, int Channels, class D>
+HWY_INLINE void remap_lanes(D d, const InteriorRun& run, int i) {
+  using V = hn::Vec<D>;
+  constexpr int kPixelBytes = static_cast<int>(sizeof(Sample)) * Channels;
+
+  const V packed = hn::LoadU(d, run.positions + i);
+  const hn::Rebind<std::uint16_t, D> d16;
+  const hn::Rebind<std::uint32_t, D> du32;
+  const V fractions = hn::BitCast(d, hn::PromoteTo(du32, hn::LoadU(d16, run.fractions + i)));
+  const V x0 = hn::ShiftRight<16>(hn::ShiftLeft<16>(packed));  // sign-extends the low half
+  const V y0 = hn::ShiftRight<16>(packed);
+  const V fx = hn::And(fractions, hn::Set(d, 31));
+  const V fy = hn::ShiftRight<5>(fractions);
+  const V top_offsets =
+      hn::Add(hn::Mul(y0, hn::Set(d, run.step)), hn::Mul(x0, hn::Set(d, kPixelBytes)));
+  const V bottom_offsets = hn::Add(top_offsets, hn::Set(d, run.step));
+
+  // 32 x the horizontal interpolation of one row, per channel (1/32 units).
+  const auto interpolate_row = [&](V offsets, V* row) {
+    HWY_ALIGN std::int32_t lane_offsets[hn::MaxLanes(D())];
+    hn::Store(offsets, d, lane_offsets);
+    V left[Channels], right[Channels];
+#if HWY_TARGET != HWY_SCALAR
+    if constexpr (Channels == 3 && hn::MaxLanes(D()) >= 4) {
+      load_bgr_pairs_by_quad(d, run.source, lane_offsets, left, right);
+    } else  // NOLINT(readability/braces): the scalar target has the word path only
+#endif
+    {
+      load_pairs_by_word<Sample, Channels>(d, run.source, lane_offsets, left, right);
+    }
+    for (int c = 0; c < Channels; ++c) {
+      row[c] = hn::Add(hn::ShiftLeft<5>(left[c]), hn::Mul(hn::Sub(right[c], left[c]), fx));
+    }
+  };
+  V top[Channels], bottom[Channels], result[Channels];
+  interpolate_row(top_offsets, top);
+  interpolate_row(bottom_offsets, bottom);
+  for (int c = 0; c < Channels; ++c) {
+    const V acc = hn::Add(hn::ShiftLeft<5>(top[c]), hn::Mul(hn::Sub(bottom[c], top[c]), fy));
+    if constexpr (sizeof(Sample) == 1) {
+      result[c] = hn::ShiftRight<10>(hn::Add(acc, hn::Set(d, 512)));  // round half up
+    } else {
+      // Half to even: adding 511 + (the integer part's low bit) carries exactly when the
+      // remainder exceeds 512, or equals 512 on an odd integer part.
+      const V odd = hn::And(hn::ShiftRight<10>(acc), hn::Set(d, 1));
+      result[c] = hn::ShiftRight<10>(hn::Add(hn::Add(acc, hn::Set(d, 511)), odd));
+    }
+  }
+
+  const hn::Rebind<Sample, D> d_out;
+  Sample* out = static_cast<Sample*>(run.out) + static_cast<std::ptrdiff_t>(i) * Channels;
+  if constexpr (Channels == 1) {
+    hn::StoreU(hn::DemoteTo(d_out, result[0]), d_out, out);
+  } else {
+    static_assert(Channels == 3, "the kernel handles grey and BGR");
+    hn::StoreInterleaved3(hn::DemoteTo(d_out, result[0]), hn::DemoteTo(d_out, result[1]),
+                          hn::DemoteTo(d_out, result[2]), d_out, out);
+  }
+}
+
+// How far ahead (output pixels) the kernel asks for the source lines it will read. A row of the
+// pipeline's grid walks a curve through the source that changes source row every few dozen
+// pixels, which the hardware prefetchers do not follow: without the hint every new line is a
+// full memory latency (~100 ns), one or two per vector of 8 pixels.
+constexpr int kPrefetchPixels = 64;  // measured best of 0, 32, 64, 128, 256, 512
+
+template <int PixelBytes>
+HWY_INLINE void prefetch_source_lines(const InteriorRun& run, int i) {
+  const std::int32_t packed = run.positions[i];
+  const std::uint8_t* top = run.source + static_cast<std::ptrdiff_t>(packed_y(packed)) * run.step +
+                            static_cast<std::ptrdiff_t>(packed_x(packed)) * PixelBytes;
+  hwy::Prefetch(top);
+  hwy::Prefetch(top + run.step);
+}
+
+template <typename Sample, int Channels>
+void remap_run(const InteriorRun& run) {
+  constexpr int kPixelBytes = static_cast<int>(sizeof(Sample)) * Channels;
+  const hn::ScalableTag<std::int32_t> d;
+  const int lanes = static_cast<int>(hn::Lanes(d));
+  int i = 0;
+  for (; i + lanes <= run.count; i += lanes) {
+    if (i + kPrefetchPixels + lanes <= run.count) {
+      prefetch_source_lines<kPixelBytes>(run, i + kPrefetchPixels);
+      prefetch_source_lines<kPixelBytes>(run, i + kPrefetchPixels + lanes - 1);
+    }
+    remap_lanes<Sample, Channels>(d, run, i);
+  }
+  if (i == run.count) return;
+  if (run.count >= lanes) {
+    // The tail as one more full vector ending at the run's end: it rewrites a few pixels with
+    // the same values, cheaper than lane by lane.
+    remap_lanes<Sample, Channels>(d, run, run.count - lanes);
+    return;
+  }
+  const hn::CappedTag<std::int32_t, 1> d1;
+  for (; i < run.count; ++i) remap_lanes<Sample, Channels>(d1, run, i);
+}
+
+void RemapInterior8UC1(const InteriorRun& run) { remap_run<std::uint8_t, 1>(run); }
+void RemapInterior8UC3(const InteriorRun& run) { remap_run<std::uint8_t, 3>(run); }
+void RemapInterior16UC1(const InteriorRun& run) { remap_run<std::uint16_t, 1>(run); }
+
+}  // namespace HWY_NAMESPACE
+}  // namespace thermovis::fpga::detail
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+namespace thermovis::fpga::detail {
+
+HWY_EXPORT(RemapInterior8UC1);
+HWY_EXPORT(RemapInterior8UC3);
+HWY_EXPORT(RemapInterior16UC1);
+
+void remap_interior_8uc1(const InteriorRun& run) { HWY_DYNAMIC_DISPATCH(RemapInterior8UC1)(run); }
+void remap_interior_8uc3(const InteriorRun& run) { HWY_DYNAMIC_DISPATCH(RemapInterior8UC3)(run); }
+void remap_interior_16uc1(const InteriorRun& run) { HWY_DYNAMIC_DISPATCH(RemapInterior16UC1)(run); }
+
+}  // namespace thermovis::fpga::detail
+#endif  // HWY_ONCE
