@@ -11,7 +11,6 @@
 #include <benchmark/benchmark.h>
 
 #include <array>
-#include <chrono>
 #include <memory>
 #include <opencv2/core.hpp>
 #include <opencv2/core/utility.hpp>
@@ -22,6 +21,7 @@
 #include "thermovis/fpga/remap.hpp"
 #include "thermovis/rectify/stereo_geometry.hpp"
 #include "thermovis/runtime/rig_io.hpp"
+#include "thermovis/test/compare_alternately.hpp"
 #include "thermovis/test/data.hpp"
 
 namespace {
@@ -88,11 +88,13 @@ void set_counters(benchmark::State& state, const Case& c) {
                           c.cv_fractions.total() * c.cv_fractions.elemSize());
 }
 
-void BM_Ours(benchmark::State& state) {
+// Times remap(case, out) alone; ns_per_px = time per output pixel.
+template <typename Remap>
+void time_remap(benchmark::State& state, Remap remap) {
   const Case& c = get_case(static_cast<int>(state.range(0)));
   cv::Mat out;
   for (auto _ : state) {
-    c.ours->remap(c.image, out);
+    remap(c, out);
     benchmark::DoNotOptimize(out.data);
   }
   set_counters(state, c);
@@ -101,42 +103,30 @@ void BM_Ours(benchmark::State& state) {
       benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 
+void BM_Ours(benchmark::State& state) {
+  time_remap(state, [](const Case& c, cv::Mat& out) { c.ours->remap(c.image, out); });
+}
+
 void BM_OpenCv(benchmark::State& state) {
-  const Case& c = get_case(static_cast<int>(state.range(0)));
   const OneThread one;
-  cv::Mat out;
-  for (auto _ : state) {
-    opencv_remap(c, out);
-    benchmark::DoNotOptimize(out.data);
-  }
-  set_counters(state, c);
-  state.counters["ns_per_px"] = benchmark::Counter(
-      static_cast<double>(c.grid.area()) * 1e-9,
-      benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  time_remap(state, opencv_remap);
 }
 
 void BM_Compare(benchmark::State& state) {
   const Case& c = get_case(static_cast<int>(state.range(0)));
   const OneThread one;
   cv::Mat ours_out, opencv_out;
-  double ours_s = 0.0, opencv_s = 0.0;
-  using Clock = std::chrono::steady_clock;
-  for (auto _ : state) {
-    const auto t0 = Clock::now();
-    c.ours->remap(c.image, ours_out);
-    const auto t1 = Clock::now();
-    opencv_remap(c, opencv_out);
-    const auto t2 = Clock::now();
-    ours_s += std::chrono::duration<double>(t1 - t0).count();
-    opencv_s += std::chrono::duration<double>(t2 - t1).count();
-    benchmark::DoNotOptimize(ours_out.data);
-    benchmark::DoNotOptimize(opencv_out.data);
-  }
+  test::compare_alternately(
+      state, "opencv",
+      [&] {
+        c.ours->remap(c.image, ours_out);
+        benchmark::DoNotOptimize(ours_out.data);
+      },
+      [&] {
+        opencv_remap(c, opencv_out);
+        benchmark::DoNotOptimize(opencv_out.data);
+      });
   set_counters(state, c);
-  const double n = static_cast<double>(state.iterations());
-  state.counters["ours_ms"] = 1e3 * ours_s / n;
-  state.counters["opencv_ms"] = 1e3 * opencv_s / n;
-  state.counters["opencv_over_ours"] = ours_s > 0.0 ? opencv_s / ours_s : 0.0;
 }
 
 BENCHMARK(BM_Ours)->DenseRange(0, 3)->Unit(benchmark::kMillisecond);
