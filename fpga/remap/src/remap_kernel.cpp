@@ -6,13 +6,13 @@
 // Per lane (one output pixel): the source byte offset of the top-left neighbour is
 // y0 * step + x0 * bytes_per_pixel; one word per row (and channel) brings both horizontal
 // neighbours (8-bit grey: bytes 0 and 1 of a 32-bit word, 16-bit: its halves, BGR: bytes 0-2
-// and 3-5 of a 64-bit word; x86 and every Highway target are little-endian). The bilinear sum
-// is done
-// separably,
+// and 3-5 of a 64-bit word; x86 and every Highway target are little-endian). Grey images are
+// interpolated separably,
 //   top = 32 p00 + (p01 - p00) fx,  bottom = 32 p10 + (p11 - p10) fx,
 //   acc = 32 top + (bottom - top) fy,
-// which is the same integer as the four-weight sum of the model (1/1024 units), so the
-// rounding rules of remap.hpp apply unchanged.
+// BGR images with int16 multiply-adds of the four weights (bgr_sums_by_pairs); both give the
+// same integer as the four-weight sum of the model (1/1024 units), so the rounding rules of
+// remap.hpp apply unchanged.
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "remap_kernel.cpp"
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
@@ -76,32 +76,58 @@ HWY_INLINE void load_pairs_by_word(D d, const std::uint8_t* source, const std::i
 }
 
 #if HWY_TARGET != HWY_SCALAR
-// The same for BGR with vectors of at least 4 lanes: one 64-bit word brings both neighbours of
-// a pixel (bytes B G R B' G' R', 6 of 8), two loads per pixel and row instead of three. Vector
-// A takes the even pairs of pixels (0, 1, 4, 5, ...), B the odd pairs (2, 3, 6, 7, ...), so
-// that one byte shuffle per 128-bit block puts each pixel's sample back in its own int32 lane.
+// The bilinear sums of BGR pixels with vectors of at least 4 lanes. One 64-bit word brings both
+// neighbours of a pixel on a row (bytes B G R B' G' R', 6 of 8): two loads per pixel and row
+// instead of three. Vector A takes the even pairs of pixels (0, 1, 4, 5, ...), B the odd pairs
+// (2, 3, 6, 7, ...), so that one byte shuffle per 128-bit block and channel puts each pixel's
+// (left, right) samples as an int16 pair in its own int32 lane; one multiply-add of int16 pairs
+// per row (_mm256_madd_epi16 on x86) then gives
+//   acc = (32 - fx)(32 - fy) p00 + fx (32 - fy) p01 + (32 - fx) fy p10 + fx fy p11,
+// the model's four-weight sum itself (weights <= 1024, samples <= 255: no overflow).
 template <class D, class V = hn::Vec<D>>
-HWY_INLINE void load_bgr_pairs_by_quad(D d, const std::uint8_t* source, const std::int32_t* offsets,
-                                       V* left, V* right) {
+HWY_INLINE void bgr_sums_by_pairs(D d, const std::uint8_t* source, const std::int32_t* top,
+                                  const std::int32_t* bottom, V fx, V fy, V* acc) {
   const hn::Repartition<std::uint64_t, D> du64;
   const hn::Repartition<std::uint8_t, D> du8;
+  const hn::Repartition<std::int16_t, D> di16;
   // u64 lane j of A is pixel 4 (j / 2) + j % 2; of B, two pixels further.
-  const auto a = hn::BitCast(
-      du8, load_words(du64, source, offsets, [](int j) { return 4 * (j / 2) + j % 2; }));
-  const auto b = hn::BitCast(
-      du8, load_words(du64, source, offsets, [](int j) { return 4 * (j / 2) + j % 2 + 2; }));
-  // Per 128-bit block: A holds pixels 0 and 1 of the block's four (bytes 0-7, 8-15), B pixels
-  // 2 and 3. Byte k of a pixel's word goes to the low byte of its int32 lane; 0x80 gives 0.
-  for (int k = 0; k < 6; ++k) {
-    const auto u = static_cast<std::uint8_t>(k);
-    const auto v = static_cast<std::uint8_t>(8 + k);
+  const auto pixel_of_a = [](int j) { return 4 * (j / 2) + j % 2; };
+  const auto pixel_of_b = [](int j) { return 4 * (j / 2) + j % 2 + 2; };
+  const auto top_a = hn::BitCast(du8, load_words(du64, source, top, pixel_of_a));
+  const auto top_b = hn::BitCast(du8, load_words(du64, source, top, pixel_of_b));
+  const auto bottom_a = hn::BitCast(du8, load_words(du64, source, bottom, pixel_of_a));
+  const auto bottom_b = hn::BitCast(du8, load_words(du64, source, bottom, pixel_of_b));
+  // Weight pairs (left, right) per pixel and row, as int16 in the int32 lanes (little-endian).
+  const V wx0 = hn::Sub(hn::Set(d, 32), fx);
+  const V wy0 = hn::Sub(hn::Set(d, 32), fy);
+  const auto top_weights =
+      hn::BitCast(di16, hn::Or(hn::Mul(wx0, wy0), hn::ShiftLeft<16>(hn::Mul(fx, wy0))));
+  const auto bottom_weights =
+      hn::BitCast(di16, hn::Or(hn::Mul(wx0, fy), hn::ShiftLeft<16>(hn::Mul(fx, fy))));
+  for (int c = 0; c < 3; ++c) {
+    // Per 128-bit block: A holds pixels 0 and 1 of the block's four (bytes 0-7, 8-15), B pixels
+    // 2 and 3; lane k gets bytes (c, 3 + c) of its pixel's word, zero-extended (0x80 gives 0).
+    const auto l0 = static_cast<std::uint8_t>(c);
+    const auto r0 = static_cast<std::uint8_t>(3 + c);
+    const auto l1 = static_cast<std::uint8_t>(8 + c);
+    const auto r1 = static_cast<std::uint8_t>(11 + c);
     constexpr std::uint8_t z = 0x80;
-    alignas(16) const std::uint8_t from_a[16] = {u, z, z, z, v, z, z, z, z, z, z, z, z, z, z, z};
-    alignas(16) const std::uint8_t from_b[16] = {z, z, z, z, z, z, z, z, u, z, z, z, v, z, z, z};
-    const V sample =
-        hn::BitCast(d, hn::Or(hn::TableLookupBytesOr0(a, hn::LoadDup128(du8, from_a)),
-                              hn::TableLookupBytesOr0(b, hn::LoadDup128(du8, from_b))));
-    (k < 3 ? left[k] : right[k - 3]) = sample;
+    alignas(16)
+        const std::uint8_t from_a[16] = {l0, z, r0, z, l1, z, r1, z, z, z, z, z, z, z, z, z};
+    alignas(16)
+        const std::uint8_t from_b[16] = {z, z, z, z, z, z, z, z, l0, z, r0, z, l1, z, r1, z};
+    const auto shuffle_a = hn::LoadDup128(du8, from_a);
+    const auto shuffle_b = hn::LoadDup128(du8, from_b);
+    const auto pairs = [&](decltype(top_a) a, decltype(top_a) b) {
+      return hn::BitCast(di16, hn::Or(hn::TableLookupBytesOr0(a, shuffle_a),
+                                      hn::TableLookupBytesOr0(b, shuffle_b)));
+    };
+    V odd_sums = hn::Zero(d);
+    V sums =
+        hn::ReorderWidenMulAccumulate(d, pairs(top_a, top_b), top_weights, hn::Zero(d), odd_sums);
+    sums =
+        hn::ReorderWidenMulAccumulate(d, pairs(bottom_a, bottom_b), bottom_weights, sums, odd_sums);
+    acc[c] = hn::RearrangeToOddPlusEven(sums, odd_sums);
   }
 }
 #endif
@@ -129,35 +155,39 @@ HWY_INLINE void remap_lanes(D d, const InteriorRun& run, int i) {
   const V top_offsets = top_left_offsets<kPixelBytes>(d, run, i);
   const V bottom_offsets = hn::Add(top_offsets, hn::Set(d, run.step));
 
-  // 32 x the horizontal interpolation of one row, per channel (1/32 units).
-  const auto interpolate_row = [&](V offsets, V* row) {
-    HWY_ALIGN std::int32_t lane_offsets[hn::MaxLanes(D())];
-    hn::Store(offsets, d, lane_offsets);
-    V left[Channels], right[Channels];
+  HWY_ALIGN std::int32_t top[hn::MaxLanes(D())];
+  HWY_ALIGN std::int32_t bottom[hn::MaxLanes(D())];
+  hn::Store(top_offsets, d, top);
+  hn::Store(bottom_offsets, d, bottom);
+  V acc[Channels];
 #if HWY_TARGET != HWY_SCALAR
-    if constexpr (Channels == 3 && hn::MaxLanes(D()) >= 4) {
-      load_bgr_pairs_by_quad(d, run.source, lane_offsets, left, right);
-    } else  // NOLINT(readability/braces): the scalar target has the word path only
+  if constexpr (Channels == 3 && hn::MaxLanes(D()) >= 4) {
+    bgr_sums_by_pairs(d, run.source, top, bottom, fx, fy, acc);
+  } else  // NOLINT(readability/braces): the scalar target has the word path only
 #endif
-    {
-      load_pairs_by_word<Sample, Channels>(d, run.source, lane_offsets, left, right);
-    }
+  {
+    // 32 x the horizontal interpolation of each row (1/32 units), then the vertical one.
+    V top_left[Channels], top_right[Channels], bottom_left[Channels], bottom_right[Channels];
+    load_pairs_by_word<Sample, Channels>(d, run.source, top, top_left, top_right);
+    load_pairs_by_word<Sample, Channels>(d, run.source, bottom, bottom_left, bottom_right);
+    const auto interpolate = [&](V left, V right) {
+      return hn::Add(hn::ShiftLeft<5>(left), hn::Mul(hn::Sub(right, left), fx));
+    };
     for (int c = 0; c < Channels; ++c) {
-      row[c] = hn::Add(hn::ShiftLeft<5>(left[c]), hn::Mul(hn::Sub(right[c], left[c]), fx));
+      const V upper = interpolate(top_left[c], top_right[c]);
+      const V lower = interpolate(bottom_left[c], bottom_right[c]);
+      acc[c] = hn::Add(hn::ShiftLeft<5>(upper), hn::Mul(hn::Sub(lower, upper), fy));
     }
-  };
-  V top[Channels], bottom[Channels], result[Channels];
-  interpolate_row(top_offsets, top);
-  interpolate_row(bottom_offsets, bottom);
+  }
+  V result[Channels];
   for (int c = 0; c < Channels; ++c) {
-    const V acc = hn::Add(hn::ShiftLeft<5>(top[c]), hn::Mul(hn::Sub(bottom[c], top[c]), fy));
     if constexpr (sizeof(Sample) == 1) {
-      result[c] = hn::ShiftRight<10>(hn::Add(acc, hn::Set(d, 512)));  // round half up
+      result[c] = hn::ShiftRight<10>(hn::Add(acc[c], hn::Set(d, 512)));  // round half up
     } else {
       // Half to even: adding 511 + (the integer part's low bit) carries exactly when the
       // remainder exceeds 512, or equals 512 on an odd integer part.
-      const V odd = hn::And(hn::ShiftRight<10>(acc), hn::Set(d, 1));
-      result[c] = hn::ShiftRight<10>(hn::Add(hn::Add(acc, hn::Set(d, 511)), odd));
+      const V odd = hn::And(hn::ShiftRight<10>(acc[c]), hn::Set(d, 1));
+      result[c] = hn::ShiftRight<10>(hn::Add(hn::Add(acc[c], hn::Set(d, 511)), odd));
     }
   }
 
