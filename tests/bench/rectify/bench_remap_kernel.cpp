@@ -7,6 +7,8 @@
 // BM_Compare times both alternately in one loop and reports ours_ms, opencv_ms and
 // opencv_over_ours = time(cv::remap) / time(FastRemapper) (the speed-up; the machine is shared,
 // so compare within one run).
+// BM_CopyResizeFloor: the issue's floor (copy of the source + cv::resize INTER_AREA onto the
+// grid's size) for the same cases.
 // Run: build/bin/bench_remap_kernel
 #include <benchmark/benchmark.h>
 
@@ -112,6 +114,17 @@ void BM_OpenCv(benchmark::State& state) {
   time_remap(state, opencv_remap);
 }
 
+// The issue's floor for the frame path: a copy of the source plus cv::resize (INTER_AREA) onto
+// the grid's size, one thread (issue #15 asks for the whole path within 3x of it).
+void BM_CopyResizeFloor(benchmark::State& state) {
+  const OneThread one;
+  cv::Mat copy;
+  time_remap(state, [&copy](const Case& c, cv::Mat& out) {
+    c.image.copyTo(copy);
+    cv::resize(copy, out, c.grid, 0.0, 0.0, cv::INTER_AREA);
+  });
+}
+
 void BM_Compare(benchmark::State& state) {
   const Case& c = get_case(static_cast<int>(state.range(0)));
   const OneThread one;
@@ -131,6 +144,7 @@ void BM_Compare(benchmark::State& state) {
 
 BENCHMARK(BM_Ours)->DenseRange(0, 3)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_OpenCv)->DenseRange(0, 3)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_CopyResizeFloor)->DenseRange(0, 3)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Compare)->DenseRange(0, 3)->Unit(benchmark::kMillisecond);
 
 }  // namespace
