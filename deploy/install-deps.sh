@@ -8,6 +8,7 @@ packages=(
   libopencv-dev libopencv-contrib-dev opencv-data
   libeigen3-dev libyaml-cpp-dev nlohmann-json3-dev libcli11-dev libceres-dev
   libgtest-dev libgmock-dev libbenchmark-dev
+  libhwy-dev
   libfastrtps-dev fastddsgen fastdds-tools
   cyclonedds-dev cyclonedds-tools
   clang-format iproute2 procps

@@ -1,8 +1,12 @@
 #include "thermovis/fpga/remap.hpp"
 
-#include <opencv2/imgproc.hpp>
+#include <algorithm>
+#include <climits>
+#include <cstdint>
 #include <stdexcept>
 #include <string>
+
+#include "remap_kernel.hpp"
 
 namespace thermovis::fpga {
 
@@ -28,60 +32,79 @@ inline int round_half_even_q10(int acc) {
   return whole + ((rest > 512 || (rest == 512 && (whole & 1) != 0)) ? 1 : 0);
 }
 
-// The per-pixel datapath of the FPGA stage; Lookup(u, v) -> FixedPointEntry (full or quarter
-// table).
-template <typename Sample, int Channels, typename Lookup>
-void remap_model(const cv::Mat& source, cv::Mat& out, Lookup lookup) {
+// The per-pixel datapath of the FPGA stage: the sample at (x_q5, y_q5) (absolute source
+// position, 1/32 px) into dst[0..Channels).
+template <typename Sample, int Channels>
+void sample_model(const cv::Mat& source, int x_q5, int y_q5, Sample* dst) {
   const int w = source.cols;
   const int h = source.rows;
-  for (int v = 0; v < out.rows; ++v) {
-    auto* dst = out.ptr<Sample>(v);
-    for (int u = 0; u < out.cols; ++u, dst += Channels) {
-      const FixedPointEntry e = lookup(u, v);
-      if (!e.valid()) {
-        for (int c = 0; c < Channels; ++c) dst[c] = 0;
-        continue;
-      }
-      const int x_q5 = absolute_q5(e.qx, w);
-      const int y_q5 = absolute_q5(e.qy, h);
-      const int x0 = x_q5 >> kFractionBits;  // arithmetic shift: floor
-      const int y0 = y_q5 >> kFractionBits;
-      const int fx = x_q5 & (kSubpixelSteps - 1);
-      const int fy = y_q5 & (kSubpixelSteps - 1);
-      const int weights[4] = {(32 - fx) * (32 - fy), fx * (32 - fy), (32 - fx) * fy, fx * fy};
-      const int xs[4] = {x0, x0 + 1, x0, x0 + 1};
-      const int ys[4] = {y0, y0, y0 + 1, y0 + 1};
-      for (int c = 0; c < Channels; ++c) {
-        int acc = 0;
-        for (int k = 0; k < 4; ++k) {
-          if (xs[k] < 0 || ys[k] < 0 || xs[k] >= w || ys[k] >= h) continue;  // border = 0
-          acc += weights[k] * source.ptr<Sample>(ys[k])[xs[k] * Channels + c];
-        }
-        if constexpr (sizeof(Sample) == 1) {
-          dst[c] = static_cast<Sample>((acc + 512) >> 10);
-        } else {
-          dst[c] = static_cast<Sample>(round_half_even_q10(acc));
-        }
-      }
+  const int x0 = x_q5 >> kFractionBits;  // arithmetic shift: floor
+  const int y0 = y_q5 >> kFractionBits;
+  const int fx = x_q5 & (kSubpixelSteps - 1);
+  const int fy = y_q5 & (kSubpixelSteps - 1);
+  const int weights[4] = {(32 - fx) * (32 - fy), fx * (32 - fy), (32 - fx) * fy, fx * fy};
+  const int xs[4] = {x0, x0 + 1, x0, x0 + 1};
+  const int ys[4] = {y0, y0, y0 + 1, y0 + 1};
+  for (int c = 0; c < Channels; ++c) {
+    int acc = 0;
+    for (int k = 0; k < 4; ++k) {
+      if (xs[k] < 0 || ys[k] < 0 || xs[k] >= w || ys[k] >= h) continue;  // border = 0
+      acc += weights[k] * source.ptr<Sample>(ys[k])[xs[k] * Channels + c];
+    }
+    if constexpr (sizeof(Sample) == 1) {
+      dst[c] = static_cast<Sample>((acc + 512) >> 10);
+    } else {
+      dst[c] = static_cast<Sample>(round_half_even_q10(acc));
     }
   }
 }
 
+// Calls f.template operator()<Sample, Channels>() for a checked image type.
+template <typename F>
+void with_pixel_format(int type, F&& f) {
+  switch (type) {
+    case CV_8UC1:
+      f.template operator()<std::uint8_t, 1>();
+      break;
+    case CV_8UC3:
+      f.template operator()<std::uint8_t, 3>();
+      break;
+    default:  // CV_16UC1, checked before
+      f.template operator()<std::uint16_t, 1>();
+      break;
+  }
+}
+
+// Lookup(u, v) -> FixedPointEntry (full or quarter table).
 template <typename Lookup>
 cv::Mat remap_dispatch(const cv::Mat& source, cv::Size out_size, Lookup lookup) {
   cv::Mat out(out_size, source.type());
-  switch (source.type()) {
-    case CV_8UC1:
-      remap_model<std::uint8_t, 1>(source, out, lookup);
-      break;
-    case CV_8UC3:
-      remap_model<std::uint8_t, 3>(source, out, lookup);
-      break;
-    default:  // CV_16UC1, checked before
-      remap_model<std::uint16_t, 1>(source, out, lookup);
-      break;
-  }
+  with_pixel_format(source.type(), [&]<typename Sample, int Channels>() {
+    for (int v = 0; v < out.rows; ++v) {
+      auto* dst = out.ptr<Sample>(v);
+      for (int u = 0; u < out.cols; ++u, dst += Channels) {
+        const FixedPointEntry e = lookup(u, v);
+        if (!e.valid()) {
+          for (int c = 0; c < Channels; ++c) dst[c] = 0;
+          continue;
+        }
+        sample_model<Sample, Channels>(source, absolute_q5(e.qx, source.cols),
+                                       absolute_q5(e.qy, source.rows), dst);
+      }
+    }
+  });
   return out;
+}
+
+template <typename Sample, int Channels>
+void remap_interior(const detail::InteriorRun& run) {
+  if constexpr (Channels == 3) {
+    detail::remap_interior_8uc3(run);
+  } else if constexpr (sizeof(Sample) == 1) {
+    detail::remap_interior_8uc1(run);
+  } else {
+    detail::remap_interior_16uc1(run);
+  }
 }
 
 }  // namespace
@@ -112,18 +135,17 @@ cv::Mat remap_reference(const cv::Mat& source, const QuarterTable& table) {
                         [&table](int u, int v) { return table.at(u, v); });
 }
 
-FastRemapper::FastRemapper(const FixedPointMap& map)
-    : positions_(map.size(), CV_16SC2),
-      fractions_(map.size(), CV_16UC1),
-      source_size_(map.source_size()) {
+void to_opencv_maps(const FixedPointMap& map, cv::Mat& positions, cv::Mat& fractions) {
+  positions.create(map.size(), CV_16SC2);
+  fractions.create(map.size(), CV_16UC1);
+  const cv::Size source = map.source_size();
   for (int v = 0; v < map.size().height; ++v) {
-    auto* pos = positions_.ptr<cv::Vec2s>(v);
-    auto* frac = fractions_.ptr<std::uint16_t>(v);
+    auto* pos = positions.ptr<cv::Vec2s>(v);
+    auto* frac = fractions.ptr<std::uint16_t>(v);
     for (int u = 0; u < map.size().width; ++u) {
       const FixedPointEntry e = map.at(u, v);
-      const int x_q5 = absolute_q5(e.qx, source_size_.width);
-      const int y_q5 = absolute_q5(e.qy, source_size_.height);
-      // Invalid entries land more than a pixel outside the source (see fixed_map.hpp): 0.
+      const int x_q5 = absolute_q5(e.qx, source.width);
+      const int y_q5 = absolute_q5(e.qy, source.height);
       pos[u] = cv::Vec2s(static_cast<short>(x_q5 >> kFractionBits),
                          static_cast<short>(y_q5 >> kFractionBits));
       frac[u] = static_cast<std::uint16_t>((y_q5 & (kSubpixelSteps - 1)) * kSubpixelSteps +
@@ -132,10 +154,93 @@ FastRemapper::FastRemapper(const FixedPointMap& map)
   }
 }
 
-void FastRemapper::remap(const cv::Mat& source, cv::Mat& out) const {
+FastRemapper::FastRemapper(const FixedPointMap& map)
+    : size_(map.size()), source_size_(map.source_size()) {
+  const int w = source_size_.width;
+  const int h = source_size_.height;
+  positions_.resize(static_cast<std::size_t>(size_.area()));
+  fractions_.resize(positions_.size());
+  row_runs_.reserve(static_cast<std::size_t>(size_.height) + 1);
+  std::size_t i = 0;
+  for (int v = 0; v < size_.height; ++v) {
+    row_runs_.push_back(static_cast<std::int32_t>(runs_.size()));
+    for (int u = 0; u < size_.width; ++u, ++i) {
+      const FixedPointEntry e = map.at(u, v);
+      RunKind kind = RunKind::zero;
+      if (e.valid()) {
+        const int x_q5 = absolute_q5(e.qx, w);
+        const int y_q5 = absolute_q5(e.qy, h);
+        const int x0 = x_q5 >> kFractionBits;  // in [-1024, 2046]: fits the packed int16
+        const int y0 = y_q5 >> kFractionBits;
+        positions_[i] = detail::pack_position(x0, y0);
+        fractions_[i] = static_cast<std::uint16_t>((y_q5 & (kSubpixelSteps - 1)) * kSubpixelSteps +
+                                                   (x_q5 & (kSubpixelSteps - 1)));
+        const bool any_inside = x0 >= -1 && x0 < w && y0 >= -1 && y0 < h;
+        // The 8-bit grey and BGR kernels load 2 bytes beyond the right neighbour: past the
+        // source's end on its last row unless x0 + 3 < w.
+        const bool interior =
+            x0 >= 0 && x0 + 1 < w && y0 >= 0 && y0 + 1 < h && (y0 + 2 < h || x0 + 3 < w);
+        kind = interior ? RunKind::interior : any_inside ? RunKind::border : RunKind::zero;
+      }
+      if (u > 0 && runs_.back().kind == kind) {
+        runs_.back().end = u + 1;
+      } else {
+        runs_.push_back({u, u + 1, kind});
+      }
+    }
+  }
+  row_runs_.push_back(static_cast<std::int32_t>(runs_.size()));
+}
+
+void FastRemapper::remap(const cv::Mat& source, cv::Mat& out, int first_row, int last_row) const {
   check_remap_source(source, source_size_);
-  cv::remap(source, out, positions_, fractions_, cv::INTER_LINEAR, cv::BORDER_CONSTANT,
-            cv::Scalar::all(0));
+  if (first_row < 0 || first_row > last_row || last_row >= size_.height) {
+    throw std::out_of_range("remap: rows " + std::to_string(first_row) + ".." +
+                            std::to_string(last_row) + " are not within the table's rows 0.." +
+                            std::to_string(size_.height - 1));
+  }
+  out.create(size_, source.type());
+  // The kernel addresses the source with int32 byte offsets; a view into a huge parent image
+  // (never a camera frame) is compacted first.
+  cv::Mat compact;
+  const bool huge_pitch = static_cast<double>(source.step[0]) * source.rows > INT32_MAX;
+  if (huge_pitch) compact = source.clone();
+  const cv::Mat& src = huge_pitch ? compact : source;
+  const auto step = static_cast<std::int32_t>(src.step[0]);
+
+  with_pixel_format(source.type(), [&]<typename Sample, int Channels>() {
+    for (int v = first_row; v <= last_row; ++v) {
+      auto* row = out.ptr<Sample>(v);
+      const std::size_t row_start = static_cast<std::size_t>(v) * size_.width;
+      for (std::int32_t r = row_runs_[v]; r < row_runs_[v + 1]; ++r) {
+        const Run& run = runs_[r];
+        switch (run.kind) {
+          case RunKind::zero:
+            std::fill(row + run.begin * Channels, row + run.end * Channels, Sample{0});
+            break;
+          case RunKind::interior:
+            remap_interior<Sample, Channels>({src.data, step,
+                                              positions_.data() + row_start + run.begin,
+                                              fractions_.data() + row_start + run.begin,
+                                              row + run.begin * Channels, run.end - run.begin});
+            break;
+          case RunKind::border:
+            for (int u = run.begin; u < run.end; ++u) {
+              const std::int32_t p = positions_[row_start + u];
+              const int f = fractions_[row_start + u];
+              sample_model<Sample, Channels>(
+                  src, detail::packed_x(p) * kSubpixelSteps + (f & (kSubpixelSteps - 1)),
+                  detail::packed_y(p) * kSubpixelSteps + (f >> kFractionBits), row + u * Channels);
+            }
+            break;
+        }
+      }
+    }
+  });
+}
+
+void FastRemapper::remap(const cv::Mat& source, cv::Mat& out) const {
+  remap(source, out, 0, size_.height - 1);
 }
 
 cv::Mat FastRemapper::remap(const cv::Mat& source) const {

@@ -1,15 +1,14 @@
-// Remap speed: our fixed-point table (fpga::FastRemapper: cv::remap on CV_16SC2 + CV_16UC1
-// maps precomputed from the Q11.5 table) against cv::remap with the float maps (CV_32FC2), in
-// the same run, on the paper rig's maps:
+// Remap speed: our fixed-point table (fpga::FastRemapper: the Highway kernel over a layout
+// precomputed from the Q11.5 table) against cv::remap with the float maps (CV_32FC2), in the
+// same run, on the paper rig's maps:
 //   visible 1920x1080 8-bit BGR and infrared 1024x768 16-bit raw, each through the paper's
 //   elliptical correction (output = input size) and the Taylor rectification (output = the
 //   pair's rectified grid).
 // Counters: table sizes in bytes (full Q11.5 table, quarter table where the map is symmetric,
-// float map, OpenCV fixed-point maps); BM_Compare reports float_over_ours = time(float) /
+// float map, FastRemapper's layout); BM_Compare reports float_over_ours = time(float) /
 // time(ours) measured alternately in one loop (>= 1: ours at least as fast).
 #include <benchmark/benchmark.h>
 
-#include <chrono>
 #include <map>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
@@ -20,6 +19,7 @@
 #include "thermovis/rectify/elliptical.hpp"
 #include "thermovis/rectify/rig_rectification.hpp"
 #include "thermovis/runtime/rig_io.hpp"
+#include "thermovis/test/compare_alternately.hpp"
 #include "thermovis/test/data.hpp"
 
 namespace {
@@ -77,7 +77,7 @@ void set_counters(benchmark::State& state, const Case& c) {
   state.counters["quarter_bytes"] = static_cast<double>(c.quarter_bytes);
   state.counters["float_map_bytes"] =
       static_cast<double>(c.float_map.total() * c.float_map.elemSize());
-  state.counters["cv_fixed_map_bytes"] = static_cast<double>(c.fast->map_bytes());
+  state.counters["fast_map_bytes"] = static_cast<double>(c.fast->map_bytes());
 }
 
 void BM_RemapOurs(benchmark::State& state) {
@@ -103,23 +103,13 @@ void BM_RemapOpenCvFloat(benchmark::State& state) {
 void BM_Compare(benchmark::State& state) {
   const Case& c = get_case(static_cast<int>(state.range(0)));
   cv::Mat out;
-  double ours_s = 0.0, float_s = 0.0;
-  using Clock = std::chrono::steady_clock;
-  for (auto _ : state) {
-    const auto t0 = Clock::now();
-    c.fast->remap(c.image, out);
-    const auto t1 = Clock::now();
-    cv::remap(c.image, out, c.float_map, cv::noArray(), cv::INTER_LINEAR, cv::BORDER_CONSTANT);
-    const auto t2 = Clock::now();
-    ours_s += std::chrono::duration<double>(t1 - t0).count();
-    float_s += std::chrono::duration<double>(t2 - t1).count();
-    benchmark::DoNotOptimize(out.data);
-  }
+  test::compare_alternately(
+      state, "float", [&] { c.fast->remap(c.image, out); },
+      [&] {
+        cv::remap(c.image, out, c.float_map, cv::noArray(), cv::INTER_LINEAR, cv::BORDER_CONSTANT);
+        benchmark::DoNotOptimize(out.data);
+      });
   set_counters(state, c);
-  const double n = static_cast<double>(state.iterations());
-  state.counters["ours_ms"] = 1e3 * ours_s / n;
-  state.counters["float_ms"] = 1e3 * float_s / n;
-  state.counters["float_over_ours"] = ours_s > 0.0 ? float_s / ours_s : 0.0;
 }
 
 // The bit-exact model (one pixel at a time, as the hardware): for reference, not speed.

@@ -1,8 +1,11 @@
 // The fixed-point remap tables of fpga/remap: format, quarter storage, bit-exact model against
-// the fast path, table export.
+// the fast path (on every instruction set its kernel is compiled for), table export.
 #include <gtest/gtest.h>
 
+#include <hwy/targets.h>
+#include <cmath>
 #include <fstream>
+#include <map>
 #include <opencv2/core.hpp>
 #include <random>
 #include <string>
@@ -13,6 +16,7 @@
 #include "thermovis/fpga/table_export.hpp"
 #include "thermovis/rectify/elliptical.hpp"
 #include "thermovis/rectify/rig_rectification.hpp"
+#include "thermovis/rectify/stereo_geometry.hpp"
 #include "thermovis/runtime/rig_io.hpp"
 #include "thermovis/test/data.hpp"
 
@@ -139,15 +143,14 @@ INSTANTIATE_TEST_SUITE_P(Formats, RemapAgreement, ::testing::Values(CV_8UC1, CV_
                                                                 : std::string("Grey16");
                          });
 
-TEST(Remap, Full16BitRangeAgreesWithinOneLsb) {
+TEST(Remap, Full16BitRangeIsBitExact) {
+  // Both paths are integer: no 14-bit limit (cv::remap's float sums had one).
   const cv::Size source(320, 240);
   const auto table = fpga::FixedPointMap::from_float(random_map({160, 120}, source, 5), source);
   const cv::Mat image = random_image(source, CV_16UC1, 65535, 9);
-  cv::Mat diff;
-  cv::absdiff(fpga::remap_reference(image, table), fpga::FastRemapper(table).remap(image), diff);
-  double worst;
-  cv::minMaxLoc(diff, nullptr, &worst);
-  EXPECT_LE(worst, 1.0);
+  EXPECT_EQ(count_differences(fpga::remap_reference(image, table),
+                              fpga::FastRemapper(table).remap(image)),
+            0);
 }
 
 TEST(Remap, InterpolatesAKnownRamp) {
@@ -177,6 +180,269 @@ TEST(Remap, RejectsWrongImagesWithAMessage) {
   EXPECT_THROW(fpga::FastRemapper(table).remap(cv::Mat(48, 64, CV_32FC1, cv::Scalar(0))),
                std::invalid_argument);
   EXPECT_THROW(fpga::FastRemapper(table).remap(cv::Mat()), std::invalid_argument);
+}
+
+// The fast path on every instruction set its kernel is compiled for and this CPU runs (AVX2,
+// SSE4, SSSE3, emulated 128-bit or scalar here), each forced in turn.
+std::vector<std::int64_t> kernel_targets() {
+  const auto targets = hwy::SupportedAndGeneratedTargets();
+  EXPECT_GE(targets.size(), 2u) << "the kernel should be compiled for several instruction sets";
+  return targets;
+}
+
+struct ForcedTarget {
+  explicit ForcedTarget(std::int64_t target) { hwy::SetSupportedTargetsForTest(target); }
+  ~ForcedTarget() { hwy::SetSupportedTargetsForTest(0); }  // 0: back to the CPU's own
+};
+
+int type_max(int type) { return type == CV_16UC1 ? 65535 : 255; }
+
+const char* type_label(int type) {
+  return type == CV_8UC1 ? "grey8" : type == CV_8UC3 ? "bgr8" : "grey16";
+}
+
+// Every target's FastRemapper output equals the model on `image`.
+void expect_bit_exact_on_every_target(const cv::Mat& image, const fpga::FixedPointMap& table,
+                                      const std::string& what) {
+  const cv::Mat model = fpga::remap_reference(image, table);
+  const fpga::FastRemapper fast(table);
+  for (const std::int64_t target : kernel_targets()) {
+    const ForcedTarget forced(target);
+    const cv::Mat out = fast.remap(image);
+    ASSERT_EQ(out.size(), model.size()) << what;
+    ASSERT_EQ(out.type(), model.type()) << what;
+    EXPECT_EQ(count_differences(out, model), 0) << what << " on " << hwy::TargetName(target);
+  }
+}
+
+// The rig's real tables: the left cameras onto the visible pair's grid at the pipeline's scale
+// (0.5: 936x566; wide angle, with invalid entries beyond the field of view and a border where
+// the source ends), and the paper's elliptical correction (full image, invalid corners).
+struct RigTable {
+  std::string name;
+  fpga::FixedPointMap table;
+};
+
+const RigTable& rig_table(int index) {
+  static std::map<int, RigTable> tables;
+  if (auto it = tables.find(index); it != tables.end()) return it->second;
+  const auto& rig = paper_rig();
+  const bool infrared = index % 2 == 1;
+  const std::string camera = infrared ? rig.infrared.left : rig.visible.left;
+  const cv::Size source = rig.camera(camera).model->image_size();
+  RigTable t;
+  if (index < 2) {
+    const auto grid = camera::scaled(
+        rectify::default_pair_grid(rig, rig.visible, camera::RectifiedProjection::equirectangular),
+        0.5);
+    const auto geometry = rectify::make_stereo_geometry(rig, rig.visible, grid);
+    t.name = camera + " rectified";
+    t.table = fpga::FixedPointMap::from_float(
+        rectify::build_map(rig.camera(camera), geometry.T_ref_left_rect, geometry.grid, 0.0),
+        source);
+  } else {
+    t.name = camera + " elliptical";
+    t.table = fpga::FixedPointMap::from_float(
+        rectify::build_elliptical_map(rectify::fit_elliptical_model(taylor_of(camera)).model),
+        source);
+  }
+  return tables.emplace(index, std::move(t)).first->second;
+}
+
+// Valid entries with some but not all of their four neighbours inside the source.
+int straddling_entries(const fpga::FixedPointMap& table) {
+  int count = 0;
+  const cv::Size source = table.source_size();
+  for (int v = 0; v < table.size().height; ++v) {
+    for (int u = 0; u < table.size().width; ++u) {
+      const cv::Point2d p = table.source_position(u, v);
+      if (std::isnan(p.x)) continue;
+      const int x0 = static_cast<int>(std::floor(p.x)), y0 = static_cast<int>(std::floor(p.y));
+      const bool inside = x0 >= 0 && y0 >= 0 && x0 + 1 < source.width && y0 + 1 < source.height;
+      count += inside ? 0 : 1;
+    }
+  }
+  return count;
+}
+
+class FastRemapOnRigTables : public ::testing::TestWithParam<std::tuple<int, int>> {};
+
+TEST_P(FastRemapOnRigTables, IsBitIdenticalToTheModel) {
+  const auto [index, type] = GetParam();
+  const RigTable& t = rig_table(index);
+  // The tables hold what the border path needs (pixels whose 2x2 neighbourhood straddles the
+  // source's edge), the rectified ones also entries that sample nothing.
+  ASSERT_GT(straddling_entries(t.table), 0) << t.name;
+  if (index < 2) {
+    ASSERT_EQ(t.table.size(), cv::Size(936, 566)) << t.name;
+    ASSERT_LT(t.table.valid_entries(), static_cast<std::size_t>(t.table.size().area())) << t.name;
+  }
+  const cv::Mat image =
+      random_image(t.table.source_size(), type, type_max(type), 100 + static_cast<unsigned>(index));
+  expect_bit_exact_on_every_target(image, t.table, t.name + " " + type_label(type));
+}
+
+std::string rig_table_test_name(
+    const ::testing::TestParamInfo<FastRemapOnRigTables::ParamType>& param_info) {
+  static const char* names[] = {"VisibleRectified", "InfraredRectified", "VisibleElliptical",
+                                "InfraredElliptical"};
+  return std::string(names[std::get<0>(param_info.param)]) + "_" +
+         type_label(std::get<1>(param_info.param));
+}
+
+INSTANTIATE_TEST_SUITE_P(PaperRig, FastRemapOnRigTables,
+                         ::testing::Combine(::testing::Values(0, 1, 2, 3),
+                                            ::testing::Values(CV_8UC1, CV_8UC3, CV_16UC1)),
+                         rig_table_test_name);
+
+// Raw Q11.5 entries of every kind: random offsets over the whole int16 range (mostly far outside
+// the source), positions within two pixels of the source (inside, straddling the edges, just
+// beyond), invalid entries, and entries with one coordinate at the invalid value.
+fpga::FixedPointMap random_entries(cv::Size out, cv::Size source, unsigned seed) {
+  std::mt19937 gen(seed);
+  std::uniform_int_distribution<int> any(INT16_MIN, INT16_MAX), pick(0, 19);
+  std::uniform_int_distribution<int> x(-2 * 32, (source.width + 1) * 32),
+      y(-2 * 32, (source.height + 1) * 32);
+  cv::Mat entries(out, CV_16SC2);
+  const auto offset = [](int absolute_q5, int side) {
+    return static_cast<short>(absolute_q5 - (side - 1) * (fpga::kSubpixelSteps / 2));
+  };
+  for (int v = 0; v < out.height; ++v) {
+    for (int u = 0; u < out.width; ++u) {
+      const int k = pick(gen);
+      cv::Vec2s e(offset(x(gen), source.width), offset(y(gen), source.height));
+      if (k == 0) e = cv::Vec2s(fpga::kInvalidEntry, fpga::kInvalidEntry);
+      if (k == 1) e = cv::Vec2s(static_cast<short>(any(gen)), static_cast<short>(any(gen)));
+      if (k == 2) e[0] = fpga::kInvalidEntry;
+      if (k == 3) e[1] = fpga::kInvalidEntry;
+      entries.at<cv::Vec2s>(v, u) = e;
+    }
+  }
+  return fpga::FixedPointMap(entries, source);
+}
+
+TEST(FastRemap, OddSizesAndEveryKindOfEntryAreBitExact) {
+  // Output widths from 1 to 19 and a few longer odd ones put every remainder of the vector
+  // width (4, 8, 16 lanes) into the runs' tails; sources of 1 and 2 px have no interior at all.
+  const std::vector<cv::Size> sources = {{33, 17}, {640, 479}, {1, 1}, {2, 3}, {3, 2}};
+  unsigned seed = 1;
+  for (const cv::Size source : sources) {
+    for (int width : {1, 2, 3, 5, 7, 8, 9, 13, 15, 16, 17, 19, 37, 101}) {
+      const auto table = random_entries({width, 7}, source, seed++);
+      for (int type : {CV_8UC1, CV_8UC3, CV_16UC1}) {
+        const cv::Mat image = random_image(source, type, type_max(type), seed++);
+        expect_bit_exact_on_every_target(
+            image, table,
+            std::to_string(width) + " px from " + std::to_string(source.width) + "x" +
+                std::to_string(source.height) + " " + type_label(type));
+      }
+    }
+  }
+}
+
+TEST(FastRemap, LongInteriorRunsWithOddWidthsAreBitExact) {
+  // Smooth maps (long interior runs, as the rig's) of odd widths: full vectors, then the tail.
+  const cv::Size source(101, 77);
+  for (int width : {29, 63, 97, 131}) {
+    cv::Mat map(9, width, CV_32FC2);
+    for (int v = 0; v < map.rows; ++v) {
+      for (int u = 0; u < width; ++u) {
+        map.at<cv::Vec2f>(v, u) = {-0.7f + u * 0.79f, 3.3f + v * 8.1f + u * 0.13f};
+      }
+    }
+    const auto table = fpga::FixedPointMap::from_float(map, source);
+    for (int type : {CV_8UC1, CV_8UC3, CV_16UC1}) {
+      expect_bit_exact_on_every_target(random_image(source, type, type_max(type), 7), table,
+                                       std::to_string(width) + " px " + type_label(type));
+    }
+  }
+}
+
+TEST(FastRemap, ReadsAViewIntoALargerImage) {
+  // A source that is a region of a larger image (row pitch > width): the last row's loads must
+  // stay inside the view's rows, the others may read the parent's padding.
+  const cv::Mat parent = random_image({700, 500}, CV_8UC3, 255, 4);
+  const cv::Mat view = parent(cv::Rect(31, 17, 640, 479));
+  ASSERT_FALSE(view.isContinuous());
+  const auto table =
+      fpga::FixedPointMap::from_float(random_map({301, 150}, view.size(), 8), view.size());
+  expect_bit_exact_on_every_target(view, table, "view");
+  cv::Mat grey;
+  cv::extractChannel(parent, grey, 1);
+  expect_bit_exact_on_every_target(grey(cv::Rect(1, 2, 640, 479)), table, "grey view");
+}
+
+TEST(FastRemap, ReusesTheOutputAndReallocatesOnlyWhenItDiffers) {
+  const RigTable& t = rig_table(1);
+  const cv::Mat image = random_image(t.table.source_size(), CV_16UC1, (1 << 14) - 1, 5);
+  const fpga::FastRemapper fast(t.table);
+  cv::Mat out(t.table.size(), CV_16UC1);
+  const uchar* before = out.data;
+  fast.remap(image, out);
+  EXPECT_EQ(out.data, before);
+  EXPECT_EQ(count_differences(out, fpga::remap_reference(image, t.table)), 0);
+  cv::Mat wrong(10, 10, CV_8UC1);
+  fast.remap(image, wrong);
+  EXPECT_EQ(wrong.size(), t.table.size());
+  EXPECT_EQ(wrong.type(), CV_16UC1);
+  // The layout: 4 + 2 bytes per output pixel plus a few runs per row.
+  EXPECT_GE(fast.map_bytes(), 6u * static_cast<std::size_t>(t.table.size().area()));
+  EXPECT_LT(fast.map_bytes(), 7u * static_cast<std::size_t>(t.table.size().area()));
+}
+
+TEST(FastRemap, RowRangeWritesExactlyItsRows) {
+  const RigTable& t = rig_table(0);
+  const cv::Mat image = random_image(t.table.source_size(), CV_8UC3, 255, 6);
+  const cv::Mat model = fpga::remap_reference(image, t.table);
+  const fpga::FastRemapper fast(t.table);
+  const cv::Scalar untouched(7, 77, 177);
+  for (const auto& [first, last] : {std::pair{0, 0}, {13, 200}, {400, 565}, {565, 565}}) {
+    cv::Mat out(t.table.size(), CV_8UC3, untouched);
+    fast.remap(image, out, first, last);
+    // Its rows are the model's, the others as they were.
+    cv::Mat expected(t.table.size(), CV_8UC3, untouched);
+    model.rowRange(first, last + 1).copyTo(expected.rowRange(first, last + 1));
+    EXPECT_EQ(count_differences(out, expected), 0) << first << ".." << last;
+  }
+  // An empty `out` gets the full size, only the asked rows written.
+  cv::Mat fresh;
+  fast.remap(image, fresh, 100, 101);
+  EXPECT_EQ(fresh.size(), t.table.size());
+  EXPECT_EQ(count_differences(fresh.rowRange(100, 102), model.rowRange(100, 102)), 0);
+}
+
+TEST(FastRemap, RejectsBadRowsAndImagesWithAMessage) {
+  const cv::Size source(64, 48);
+  const fpga::FastRemapper fast(
+      fpga::FixedPointMap::from_float(random_map({8, 6}, source, 1), source));
+  const cv::Mat image(source, CV_8UC1, cv::Scalar(0));
+  cv::Mat out;
+  for (const auto& [first, last] : {std::pair{-1, 2}, {3, 2}, {0, 6}}) {
+    try {
+      fast.remap(image, out, first, last);
+      FAIL() << first << ".." << last;
+    } catch (const std::out_of_range& e) {
+      EXPECT_NE(
+          std::string(e.what()).find("rows " + std::to_string(first) + ".." + std::to_string(last)),
+          std::string::npos)
+          << e.what();
+      EXPECT_NE(std::string(e.what()).find("0..5"), std::string::npos) << e.what();
+    }
+  }
+  // The image checks are the model's, with its messages.
+  try {
+    fast.remap(cv::Mat(40, 64, CV_8UC1, cv::Scalar(0)), out, 0, 1);
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("64x40"), std::string::npos) << e.what();
+  }
+  try {
+    fast.remap(cv::Mat(source, CV_16SC1, cv::Scalar(0)));
+    FAIL();
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("unsupported pixel format"), std::string::npos)
+        << e.what();
+  }
 }
 
 // The paper's elliptical correction: its table is quarter symmetric (Fig. 14).

@@ -1,0 +1,272 @@
+// The vector kernel of FastRemapper, compiled once per instruction set Highway targets on this
+// architecture (foreach_target.h re-includes this file) and chosen at run time (AVX2 on the
+// reference machine, SSE4/SSSE3 or plain C++ elsewhere): bit for bit the datapath of
+// remap_reference (remap.hpp), on int32 lanes.
+//
+// Per lane (one output pixel): the source byte offset of the top-left neighbour is
+// y0 * step + x0 * bytes_per_pixel; one word per row (and channel) brings both horizontal
+// neighbours (8-bit grey: bytes 0 and 1 of a 32-bit word, 16-bit: its halves, BGR: bytes 0-2
+// and 3-5 of a 64-bit word; x86 and every Highway target are little-endian). Grey images are
+// interpolated separably,
+//   top = 32 p00 + (p01 - p00) fx,  bottom = 32 p10 + (p11 - p10) fx,
+//   acc = 32 top + (bottom - top) fy,
+// BGR images with int16 multiply-adds of the four weights (bgr_sums_by_pairs); both give the
+// same integer as the four-weight sum of the model (1/1024 units), so the rounding rules of
+// remap.hpp apply unchanged.
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "remap_kernel.cpp"
+#include <hwy/foreach_target.h>  // IWYU pragma: keep
+// foreach_target.h must come before highway.h.
+#include <hwy/highway.h>
+
+#include <hwy/cache_control.h>
+#include <cstring>
+
+#include "remap_kernel.hpp"
+
+HWY_BEFORE_NAMESPACE();
+namespace thermovis::fpga::detail {
+namespace HWY_NAMESPACE {
+
+namespace hn = hwy::HWY_NAMESPACE;
+
+// The horizontal neighbours of Lanes(d) pixels on one source row, channel by channel: per
+// channel one 32-bit word per pixel (a gather: ~8% faster than lane by lane for the 16-bit
+// kernel on the rig's infrared table), holding the left sample in its low bytes and the right
+// one kPixelBytes further (any vector size, the tail's single lanes included).
+template <typename Sample, int Channels, class D, class V = hn::Vec<D>>
+HWY_INLINE void load_pairs_by_word(D d, const std::uint8_t* source, V offsets, V* left, V* right) {
+  constexpr int kPixelBytes = static_cast<int>(sizeof(Sample)) * Channels;
+  const V sample_mask = hn::Set(d, sizeof(Sample) == 1 ? 0xff : 0xffff);
+  for (int c = 0; c < Channels; ++c) {
+    const std::uint8_t* channel = source + c * static_cast<int>(sizeof(Sample));
+    V word;
+    if constexpr (hn::MaxLanes(D()) == hn::MaxLanes(hn::ScalableTag<std::int32_t>())) {
+      // GatherOffset takes byte offsets; the words need no alignment.
+      word = hn::GatherOffset(d, reinterpret_cast<const std::int32_t*>(channel), offsets);
+    } else {
+      // Partial vectors (the tail's single lanes): AVX2's 128-bit gather would also read at
+      // the unused lanes' offsets, so lane by lane.
+      HWY_ALIGN std::int32_t lane_offsets[hn::MaxLanes(D())];
+      HWY_ALIGN std::int32_t words[hn::MaxLanes(D())];
+      hn::Store(offsets, d, lane_offsets);
+      for (std::size_t k = 0; k < hn::Lanes(d); ++k) {
+        std::memcpy(&words[k], channel + lane_offsets[k], sizeof(std::int32_t));
+      }
+      word = hn::Load(d, words);
+    }
+    left[c] = hn::And(word, sample_mask);
+    right[c] = hn::And(hn::ShiftRight<8 * kPixelBytes>(word), sample_mask);
+  }
+}
+
+#if HWY_TARGET != HWY_SCALAR
+// A vector of 64-bit words read at source + offsets[pixel(lane)], by scalar loads combined into
+// halves and wholes. On the reference machine (AMD Zen 3, virtualised) a gather instruction
+// costs about 16-20 cycles whatever its width: for BGR's pixel pairs in permuted lanes, loading
+// lane by lane made the kernel ~1.3x faster than 64-bit gathers.
+template <class DW, class PixelOfLane>
+HWY_INLINE hn::Vec<DW> load_words(DW dw, const std::uint8_t* source, const std::int32_t* offsets,
+                                  PixelOfLane pixel_of_lane, int first_lane = 0) {
+  constexpr std::size_t kLanes = hn::MaxLanes(DW());
+  if constexpr (kLanes > 1) {
+    const hn::Half<DW> dhalf;
+    constexpr int kHalf = static_cast<int>(kLanes / 2);
+    return hn::Combine(dw, load_words(dhalf, source, offsets, pixel_of_lane, first_lane + kHalf),
+                       load_words(dhalf, source, offsets, pixel_of_lane, first_lane));
+  } else {
+    hn::TFromD<DW> word;
+    std::memcpy(&word, source + offsets[pixel_of_lane(first_lane)], sizeof(word));
+    return hn::Set(dw, word);
+  }
+}
+
+// The bilinear sums of BGR pixels with vectors of at least 4 lanes. One 64-bit word brings both
+// neighbours of a pixel on a row (bytes B G R B' G' R', 6 of 8): two loads per pixel and row
+// instead of three. Vector A takes the even pairs of pixels (0, 1, 4, 5, ...), B the odd pairs
+// (2, 3, 6, 7, ...), so that one byte shuffle per 128-bit block and channel puts each pixel's
+// (left, right) samples as an int16 pair in its own int32 lane; one multiply-add of int16 pairs
+// per row (_mm256_madd_epi16 on x86) then gives
+//   acc = (32 - fx)(32 - fy) p00 + fx (32 - fy) p01 + (32 - fx) fy p10 + fx fy p11,
+// the model's four-weight sum itself (weights <= 1024, samples <= 255: no overflow).
+template <class D, class V = hn::Vec<D>>
+HWY_INLINE void bgr_sums_by_pairs(D d, const std::uint8_t* source, const std::int32_t* top,
+                                  const std::int32_t* bottom, V fx, V fy, V* acc) {
+  const hn::Repartition<std::uint64_t, D> du64;
+  const hn::Repartition<std::uint8_t, D> du8;
+  const hn::Repartition<std::int16_t, D> di16;
+  // u64 lane j of A is pixel 4 (j / 2) + j % 2; of B, two pixels further.
+  const auto pixel_of_a = [](int j) { return 4 * (j / 2) + j % 2; };
+  const auto pixel_of_b = [](int j) { return 4 * (j / 2) + j % 2 + 2; };
+  const auto top_a = hn::BitCast(du8, load_words(du64, source, top, pixel_of_a));
+  const auto top_b = hn::BitCast(du8, load_words(du64, source, top, pixel_of_b));
+  const auto bottom_a = hn::BitCast(du8, load_words(du64, source, bottom, pixel_of_a));
+  const auto bottom_b = hn::BitCast(du8, load_words(du64, source, bottom, pixel_of_b));
+  // Weight pairs (left, right) per pixel and row, as int16 in the int32 lanes (little-endian).
+  const V wx0 = hn::Sub(hn::Set(d, 32), fx);
+  const V wy0 = hn::Sub(hn::Set(d, 32), fy);
+  const auto top_weights =
+      hn::BitCast(di16, hn::Or(hn::Mul(wx0, wy0), hn::ShiftLeft<16>(hn::Mul(fx, wy0))));
+  const auto bottom_weights =
+      hn::BitCast(di16, hn::Or(hn::Mul(wx0, fy), hn::ShiftLeft<16>(hn::Mul(fx, fy))));
+  for (int c = 0; c < 3; ++c) {
+    // Per 128-bit block: A holds pixels 0 and 1 of the block's four (bytes 0-7, 8-15), B pixels
+    // 2 and 3; lane k gets bytes (c, 3 + c) of its pixel's word, zero-extended (0x80 gives 0).
+    const auto l0 = static_cast<std::uint8_t>(c);
+    const auto r0 = static_cast<std::uint8_t>(3 + c);
+    const auto l1 = static_cast<std::uint8_t>(8 + c);
+    const auto r1 = static_cast<std::uint8_t>(11 + c);
+    constexpr std::uint8_t z = 0x80;
+    alignas(16)
+        const std::uint8_t from_a[16] = {l0, z, r0, z, l1, z, r1, z, z, z, z, z, z, z, z, z};
+    alignas(16)
+        const std::uint8_t from_b[16] = {z, z, z, z, z, z, z, z, l0, z, r0, z, l1, z, r1, z};
+    const auto shuffle_a = hn::LoadDup128(du8, from_a);
+    const auto shuffle_b = hn::LoadDup128(du8, from_b);
+    const auto pairs = [&](decltype(top_a) a, decltype(top_a) b) {
+      return hn::BitCast(di16, hn::Or(hn::TableLookupBytesOr0(a, shuffle_a),
+                                      hn::TableLookupBytesOr0(b, shuffle_b)));
+    };
+    V odd_sums = hn::Zero(d);
+    V sums =
+        hn::ReorderWidenMulAccumulate(d, pairs(top_a, top_b), top_weights, hn::Zero(d), odd_sums);
+    sums =
+        hn::ReorderWidenMulAccumulate(d, pairs(bottom_a, bottom_b), bottom_weights, sums, odd_sums);
+    acc[c] = hn::RearrangeToOddPlusEven(sums, odd_sums);
+  }
+}
+#endif
+
+// Byte offsets in the source of the top-left neighbours of pixels i .. i + Lanes(d) - 1.
+template <int PixelBytes, class D>
+HWY_INLINE hn::Vec<D> top_left_offsets(D d, const InteriorRun& run, int i) {
+  const hn::Vec<D> packed = hn::LoadU(d, run.positions + i);
+  const hn::Vec<D> x0 = hn::ShiftRight<16>(hn::ShiftLeft<16>(packed));  // sign-extends
+  const hn::Vec<D> y0 = hn::ShiftRight<16>(packed);
+  return hn::Add(hn::Mul(y0, hn::Set(d, run.step)), hn::Mul(x0, hn::Set(d, PixelBytes)));
+}
+
+// Samples Lanes(d) output pixels from pixel `i` of the run.
+template <typename Sample, int Channels, class D>
+HWY_INLINE void remap_lanes(D d, const InteriorRun& run, int i) {
+  using V = hn::Vec<D>;
+  constexpr int kPixelBytes = static_cast<int>(sizeof(Sample)) * Channels;
+
+  const hn::Rebind<std::uint16_t, D> d16;
+  const hn::Rebind<std::uint32_t, D> du32;
+  const V fractions = hn::BitCast(d, hn::PromoteTo(du32, hn::LoadU(d16, run.fractions + i)));
+  const V fx = hn::And(fractions, hn::Set(d, 31));
+  const V fy = hn::ShiftRight<5>(fractions);
+  const V top_offsets = top_left_offsets<kPixelBytes>(d, run, i);
+  const V bottom_offsets = hn::Add(top_offsets, hn::Set(d, run.step));
+
+  V acc[Channels];
+#if HWY_TARGET != HWY_SCALAR
+  if constexpr (Channels == 3 && hn::MaxLanes(D()) >= 4) {
+    HWY_ALIGN std::int32_t top[hn::MaxLanes(D())];
+    HWY_ALIGN std::int32_t bottom[hn::MaxLanes(D())];
+    hn::Store(top_offsets, d, top);
+    hn::Store(bottom_offsets, d, bottom);
+    bgr_sums_by_pairs(d, run.source, top, bottom, fx, fy, acc);
+  } else  // NOLINT(readability/braces): the scalar target has the word path only
+#endif
+  {
+    // 32 x the horizontal interpolation of each row (1/32 units), then the vertical one.
+    V top_left[Channels], top_right[Channels], bottom_left[Channels], bottom_right[Channels];
+    load_pairs_by_word<Sample, Channels>(d, run.source, top_offsets, top_left, top_right);
+    load_pairs_by_word<Sample, Channels>(d, run.source, bottom_offsets, bottom_left, bottom_right);
+    const auto interpolate = [&](V left, V right) {
+      return hn::Add(hn::ShiftLeft<5>(left), hn::Mul(hn::Sub(right, left), fx));
+    };
+    for (int c = 0; c < Channels; ++c) {
+      const V upper = interpolate(top_left[c], top_right[c]);
+      const V lower = interpolate(bottom_left[c], bottom_right[c]);
+      acc[c] = hn::Add(hn::ShiftLeft<5>(upper), hn::Mul(hn::Sub(lower, upper), fy));
+    }
+  }
+  V result[Channels];
+  for (int c = 0; c < Channels; ++c) {
+    if constexpr (sizeof(Sample) == 1) {
+      result[c] = hn::ShiftRight<10>(hn::Add(acc[c], hn::Set(d, 512)));  // round half up
+    } else {
+      // Half to even: adding 511 + (the integer part's low bit) carries exactly when the
+      // remainder exceeds 512, or equals 512 on an odd integer part.
+      const V odd = hn::And(hn::ShiftRight<10>(acc[c]), hn::Set(d, 1));
+      result[c] = hn::ShiftRight<10>(hn::Add(hn::Add(acc[c], hn::Set(d, 511)), odd));
+    }
+  }
+
+  const hn::Rebind<Sample, D> d_out;
+  Sample* out = static_cast<Sample*>(run.out) + static_cast<std::ptrdiff_t>(i) * Channels;
+  if constexpr (Channels == 1) {
+    hn::StoreU(hn::DemoteTo(d_out, result[0]), d_out, out);
+  } else {
+    static_assert(Channels == 3, "the kernel handles grey and BGR");
+    hn::StoreInterleaved3(hn::DemoteTo(d_out, result[0]), hn::DemoteTo(d_out, result[1]),
+                          hn::DemoteTo(d_out, result[2]), d_out, out);
+  }
+}
+
+// How far ahead (output pixels) the kernel asks for the source lines it will read, and for
+// which of a vector's pixels. A row of the pipeline's grid walks a curve through the source
+// that changes source row every few pixels where it is steep, which the hardware prefetchers do
+// not follow: without the hint every new line is a full memory latency (~100 ns). Measured on
+// the rig's visible table (BGR, 936x566): no hints 7.1 ms, first and last pixel of the vector
+// 4.3-5.2 ms, every second pixel 3.4-4.0 ms, every pixel 3.3-3.8 ms; distances 32-128 px alike.
+constexpr int kPrefetchPixels = 64;
+constexpr int kPrefetchEveryNthPixel = 2;
+
+template <int PixelBytes, class D>
+HWY_INLINE void prefetch_source_lines(D d, const InteriorRun& run, int i) {
+  HWY_ALIGN std::int32_t offsets[hn::MaxLanes(D())];
+  hn::Store(top_left_offsets<PixelBytes>(d, run, i), d, offsets);
+  for (std::size_t k = 0; k < hn::Lanes(d); k += kPrefetchEveryNthPixel) {
+    hwy::Prefetch(run.source + offsets[k]);
+    hwy::Prefetch(run.source + offsets[k] + run.step);
+  }
+}
+
+template <typename Sample, int Channels>
+void remap_run(const InteriorRun& run) {
+  constexpr int kPixelBytes = static_cast<int>(sizeof(Sample)) * Channels;
+  const hn::ScalableTag<std::int32_t> d;
+  const int lanes = static_cast<int>(hn::Lanes(d));
+  int i = 0;
+  for (; i + lanes <= run.count; i += lanes) {
+    if (i + kPrefetchPixels + lanes <= run.count) {
+      prefetch_source_lines<kPixelBytes>(d, run, i + kPrefetchPixels);
+    }
+    remap_lanes<Sample, Channels>(d, run, i);
+  }
+  if (i == run.count) return;
+  if (run.count >= lanes) {
+    // The tail as one more full vector ending at the run's end: it rewrites a few pixels with
+    // the same values, cheaper than lane by lane.
+    remap_lanes<Sample, Channels>(d, run, run.count - lanes);
+    return;
+  }
+  const hn::CappedTag<std::int32_t, 1> d1;
+  for (; i < run.count; ++i) remap_lanes<Sample, Channels>(d1, run, i);
+}
+
+void RemapInterior8UC1(const InteriorRun& run) { remap_run<std::uint8_t, 1>(run); }
+void RemapInterior8UC3(const InteriorRun& run) { remap_run<std::uint8_t, 3>(run); }
+void RemapInterior16UC1(const InteriorRun& run) { remap_run<std::uint16_t, 1>(run); }
+
+}  // namespace HWY_NAMESPACE
+}  // namespace thermovis::fpga::detail
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+namespace thermovis::fpga::detail {
+
+HWY_EXPORT(RemapInterior8UC1);
+HWY_EXPORT(RemapInterior8UC3);
+HWY_EXPORT(RemapInterior16UC1);
+
+void remap_interior_8uc1(const InteriorRun& run) { HWY_DYNAMIC_DISPATCH(RemapInterior8UC1)(run); }
+void remap_interior_8uc3(const InteriorRun& run) { HWY_DYNAMIC_DISPATCH(RemapInterior8UC3)(run); }
+void remap_interior_16uc1(const InteriorRun& run) { HWY_DYNAMIC_DISPATCH(RemapInterior16UC1)(run); }
+
+}  // namespace thermovis::fpga::detail
+#endif  // HWY_ONCE
