@@ -258,7 +258,7 @@ nlohmann::json run_job(const Job& job, cv::Mat raw, const Options& opt) {
   }
   j["stored_table"] = quarter ? "quarter" : "full";
   if (!job.table_path.empty()) j["exported_table"] = job.table_path;
-  j["remap_path"] = opt.reference ? "bit-exact reference" : "fast (cv::remap fixed-point)";
+  j["remap_path"] = opt.reference ? "bit-exact reference" : "fast (Highway fixed-point kernel)";
   j["map_build_ms"] = job.map_ms;
   j["remap_ms"] = remap_ms;
   if (job.parallax_offset) {

@@ -201,7 +201,9 @@ TEST(CapturePipeline, SilhouetteBoxesOnTheGridLieInsideTheCarriedRawBoxes) {
               << ", infrared silhouette " << infrared << "\n";
     EXPECT_EQ((visible & carried), visible) << t.id;
     // Beyond about 25 m the difference is below a pixel of the half grid.
-    if (t.distance_m < 25) EXPECT_LT(visible.area(), carried.area()) << t.id;
+    if (t.distance_m < 25) {
+      EXPECT_LT(visible.area(), carried.area()) << t.id;
+    }
     EXPECT_LE(infrared.y, visible.y) << t.id;
     EXPECT_LE(infrared.br().y, visible.br().y) << t.id;
     ++compared;
