@@ -332,6 +332,8 @@ class McapReader::DataPass {
   bool dispatch(std::uint8_t opcode, fmt::In& content, std::uint64_t at, std::uint64_t length,
                 bool was_after_chunk);
   void on_data_end(fmt::In& content, std::uint64_t at, std::uint64_t length);
+  // A Schema or Channel record, in the data section or inside a chunk; false for any other.
+  bool on_definition(std::uint8_t opcode, fmt::In& content, std::uint64_t at);
   void on_schema(McapSchema s, std::uint64_t at);
   void on_channel(McapChannel c, std::uint64_t at);
   bool on_message(fmt::In& content, std::uint64_t at);
@@ -397,13 +399,8 @@ void McapReader::DataPass::run() {
 
 bool McapReader::DataPass::dispatch(std::uint8_t opcode, fmt::In& content, std::uint64_t at,
                                     std::uint64_t length, bool was_after_chunk) {
+  if (on_definition(opcode, content, at)) return true;
   switch (opcode) {
-    case fmt::kSchema:
-      on_schema(parse_schema(content), at);
-      return true;
-    case fmt::kChannel:
-      on_channel(parse_channel(content), at);
-      return true;
     case fmt::kMessage:
       return on_message(content, at);
     case fmt::kChunk:
@@ -443,6 +440,17 @@ void McapReader::DataPass::on_data_end(fmt::In& content, std::uint64_t at, std::
     r_.fail("the data section ends at byte " + std::to_string(end) +
                 " but the Footer starts the summary at byte " + std::to_string(r_.summary_start_),
             at);
+}
+
+bool McapReader::DataPass::on_definition(std::uint8_t opcode, fmt::In& content, std::uint64_t at) {
+  if (opcode == fmt::kSchema) {
+    on_schema(parse_schema(content), at);
+  } else if (opcode == fmt::kChannel) {
+    on_channel(parse_channel(content), at);
+  } else {
+    return false;
+  }
+  return true;
 }
 
 void McapReader::DataPass::on_schema(McapSchema s, std::uint64_t at) {
@@ -570,13 +578,8 @@ const std::uint8_t* McapReader::DataPass::chunk_records(const McapChunkIndex& ch
 bool McapReader::DataPass::on_chunk_record(std::uint8_t opcode, fmt::In& record,
                                            const McapChunkIndex& chunk, std::uint64_t inner_at,
                                            std::uint64_t at) {
+  if (on_definition(opcode, record, at)) return true;
   switch (opcode) {
-    case fmt::kSchema:
-      on_schema(parse_schema(record), at);
-      return true;
-    case fmt::kChannel:
-      on_channel(parse_channel(record), at);
-      return true;
     case fmt::kMessage: {
       fmt::In peek = record;
       const std::uint16_t channel = peek.u16();
