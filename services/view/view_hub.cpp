@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdlib>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "thermovis/metrics/percentile.hpp"
 
@@ -18,6 +19,14 @@ nlohmann::json stats(const std::vector<double>& values) {
 }
 
 }  // namespace
+
+std::shared_ptr<EncodedFrame> encode_jpeg(const cv::Mat& image, int quality) {
+  auto frame = std::make_shared<EncodedFrame>();
+  std::vector<unsigned char> buffer;
+  cv::imencode(".jpg", image, buffer, {cv::IMWRITE_JPEG_QUALITY, quality});
+  frame->jpeg.assign(buffer.begin(), buffer.end());
+  return frame;
+}
 
 void ViewHub::publish(display::View view, std::shared_ptr<const EncodedFrame> frame) {
   {
