@@ -38,3 +38,16 @@ function(thermovis_add_library)
   target_link_libraries(thermovis_${ARG_NAME} PUBLIC ${ARG_PUBLIC_LIBS}
     PRIVATE ${ARG_PRIVATE_LIBS} thermovis::warnings)
 endfunction()
+
+# thermovis_add_service(NAME <executable> SOURCES ... [LIBS ...])
+# A pipeline service's executable, linked with the node layer (thermovis::node and
+# thermovis::runtime) and LIBS; none when THERMOVIS_WITH_DDS is off.
+function(thermovis_add_service)
+  cmake_parse_arguments(ARG "" "NAME" "SOURCES;LIBS" ${ARGN})
+  if(NOT THERMOVIS_WITH_DDS)
+    return()
+  endif()
+  add_executable(${ARG_NAME} ${ARG_SOURCES})
+  target_link_libraries(${ARG_NAME} PRIVATE thermovis::node ${ARG_LIBS} thermovis::runtime
+    thermovis::warnings)
+endfunction()
