@@ -51,3 +51,20 @@ function(thermovis_add_service)
   target_link_libraries(${ARG_NAME} PRIVATE thermovis::node ${ARG_LIBS} thermovis::runtime
     thermovis::warnings)
 endfunction()
+
+# thermovis_add_cyclone_idl(<library> FILES <idl files>)
+# A static library of the C types Cyclone DDS's idlc generates from FILES (paths under
+# THERMOVIS_IDL_ROOT) at build time, for Cyclone DDS C-API clients; the generated C is compiled
+# once and without the project's warning flags. Needs find_package(CycloneDDS) first.
+function(thermovis_add_cyclone_idl library)
+  cmake_parse_arguments(ARG "" "" "FILES" ${ARGN})
+  idlc_generate(TARGET ${library}_sources
+    FILES ${ARG_FILES}
+    BASE_DIR ${THERMOVIS_IDL_ROOT}
+    INCLUDES ${THERMOVIS_IDL_ROOT})
+  get_target_property(sources ${library}_sources INTERFACE_SOURCES)
+  add_library(${library} STATIC ${sources})
+  add_dependencies(${library} ${library}_sources_generate)
+  target_include_directories(${library} SYSTEM PUBLIC ${CMAKE_CURRENT_BINARY_DIR})
+  target_link_libraries(${library} PUBLIC CycloneDDS::ddsc)
+endfunction()
