@@ -38,3 +38,33 @@ function(thermovis_add_library)
   target_link_libraries(thermovis_${ARG_NAME} PUBLIC ${ARG_PUBLIC_LIBS}
     PRIVATE ${ARG_PRIVATE_LIBS} thermovis::warnings)
 endfunction()
+
+# thermovis_add_service(NAME <executable> SOURCES ... [LIBS ...])
+# A pipeline service's executable, linked with the node layer (thermovis::node and
+# thermovis::runtime) and LIBS; none when THERMOVIS_WITH_DDS is off.
+function(thermovis_add_service)
+  cmake_parse_arguments(ARG "" "NAME" "SOURCES;LIBS" ${ARGN})
+  if(NOT THERMOVIS_WITH_DDS)
+    return()
+  endif()
+  add_executable(${ARG_NAME} ${ARG_SOURCES})
+  target_link_libraries(${ARG_NAME} PRIVATE thermovis::node ${ARG_LIBS} thermovis::runtime
+    thermovis::warnings)
+endfunction()
+
+# thermovis_add_cyclone_idl(<library> FILES <idl files>)
+# A static library of the C types Cyclone DDS's idlc generates from FILES (paths under
+# THERMOVIS_IDL_ROOT) at build time, for Cyclone DDS C-API clients; the generated C is compiled
+# once and without the project's warning flags. Needs find_package(CycloneDDS) first.
+function(thermovis_add_cyclone_idl library)
+  cmake_parse_arguments(ARG "" "" "FILES" ${ARGN})
+  idlc_generate(TARGET ${library}_sources
+    FILES ${ARG_FILES}
+    BASE_DIR ${THERMOVIS_IDL_ROOT}
+    INCLUDES ${THERMOVIS_IDL_ROOT})
+  get_target_property(sources ${library}_sources INTERFACE_SOURCES)
+  add_library(${library} STATIC ${sources})
+  add_dependencies(${library} ${library}_sources_generate)
+  target_include_directories(${library} SYSTEM PUBLIC ${CMAKE_CURRENT_BINARY_DIR})
+  target_link_libraries(${library} PUBLIC CycloneDDS::ddsc)
+endfunction()

@@ -9,13 +9,9 @@
 
 int main(int argc, char** argv) {
   using namespace thermovis;
-  CLI::App app{"thermovis-bridge: publishes raw visible and infrared stereo frames"};
-  node::CommonOptions common;
-  common.service = "thermovis-bridge";
+  node::ServiceApp app("thermovis-bridge", "publishes raw visible and infrared stereo frames");
   bridge::SourceOptions source;
   bridge::BridgeConfig config;
-  double deadline_ms = 20.0;
-  node::add_common_options(app, common);
   app.add_option("--source", source.kind,
                  "where captures come from: sim (the simulated rig), files (a rendered folder, "
                  "--dir), v4l2 (cameras, --devices), fpga-dma (the FPGA's capture ring, --ring)")
@@ -57,31 +53,29 @@ int main(int argc, char** argv) {
   app.add_option("--frames", config.frames,
                  "stop after N captures (0: run until stopped or a --no-loop folder ends)")
       ->capture_default_str();
-  app.add_option("--deadline-ms", deadline_ms, "DEADLINE QoS period of the frame topics")
-      ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+  app.add_deadline_option("DEADLINE QoS period of the frame topics");
   CLI11_PARSE(app, argc, argv);
-  config.deadline = std::chrono::nanoseconds(static_cast<std::int64_t>(deadline_ms * 1e6));
+  config.deadline = app.deadline();
 
-  return node::run_service(common, [&] {
+  return node::run_service(app.common, [&] {
     // Where the start-up goes (a restarted bridge is the pipeline's outage): logged once.
     using Clock = std::chrono::steady_clock;
     const auto ms = [](Clock::time_point a, Clock::time_point b) {
       return std::to_string(std::chrono::duration_cast<std::chrono::milliseconds>(b - a).count());
     };
     const auto start = Clock::now();
-    const auto rig = runtime::load_rig_or_default(common.rig);
-    source.rig_file = common.rig.empty() ? runtime::default_rig_path() : common.rig;
+    const auto rig = runtime::load_rig_or_default(app.common.rig);
+    source.rig_file = app.common.rig.empty() ? runtime::default_rig_path() : app.common.rig;
     const auto rig_loaded = Clock::now();
-    auto participant = node::make_participant(common);
+    auto participant = node::make_participant(app.common);
     const auto joined = Clock::now();
     auto frames = bridge::make_source(source, rig);
     const auto source_ready = Clock::now();
-    bridge::BridgeNode bridge(*participant, std::move(frames), config, common.service);
-    std::cerr << common.service << ": ready " << ms(start, Clock::now()) << " ms after main: rig "
-              << ms(start, rig_loaded) << " ms, DDS participant " << ms(rig_loaded, joined)
-              << " ms, source " << ms(joined, source_ready) << " ms, writers and health "
-              << ms(source_ready, Clock::now()) << " ms" << std::endl;
+    bridge::BridgeNode bridge(*participant, std::move(frames), config, app.common.service);
+    std::cerr << app.common.service << ": ready " << ms(start, Clock::now())
+              << " ms after main: rig " << ms(start, rig_loaded) << " ms, DDS participant "
+              << ms(rig_loaded, joined) << " ms, source " << ms(joined, source_ready)
+              << " ms, writers and health " << ms(source_ready, Clock::now()) << " ms" << std::endl;
     bridge.run();
     const auto stats = bridge.stats();
     std::cerr << "thermovis-bridge: published " << stats.published << ", dropped " << stats.dropped

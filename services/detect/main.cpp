@@ -7,12 +7,9 @@
 
 int main(int argc, char** argv) {
   using namespace thermovis;
-  CLI::App app{"thermovis-detect: people and warm objects in the rectified frames"};
-  node::CommonOptions common;
-  common.service = "thermovis-detect";
+  node::ServiceApp app("thermovis-detect", "people and warm objects in the rectified frames",
+                       /*with_rig=*/false);
   detect_service::DetectConfig config;
-  double deadline_ms = 20.0;
-  node::add_common_options(app, common, /*with_rig=*/false);
   app.add_flag("--hog", config.detect.hog, "also run the HOG people detector on the fused image");
   app.add_option("--k-sigma", config.detect.blobs.k_sigma,
                  "warm blobs: threshold over the background median, robust sigmas")
@@ -26,19 +23,13 @@ int main(int argc, char** argv) {
   app.add_option("--debug-delay-ms", debug_delay_ms,
                  "spend this much longer on every frame (overload tests)")
       ->check(CLI::NonNegativeNumber);
-  app.add_option("--deadline-ms", deadline_ms, "DEADLINE QoS period of the frame topics")
-      ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+  app.add_deadline_option("DEADLINE QoS period of the frame topics");
   CLI11_PARSE(app, argc, argv);
-  config.deadline = node::deadline_from_ms(deadline_ms);
+  config.deadline = app.deadline();
   config.debug_delay = std::chrono::milliseconds(debug_delay_ms);
 
-  return node::run_service(common, [&] {
-    auto participant = node::make_participant(common);
-    detect_service::DetectNode detector(*participant, config, common.service);
-    detector.run();
-    const auto stats = detector.stats();
-    std::cerr << common.service << ": processed " << stats.processed << ", dropped "
+  return node::run_node<detect_service::DetectNode>(app.common, config, [&](const auto& stats) {
+    std::cerr << app.common.service << ": processed " << stats.processed << ", dropped "
               << stats.dropped << ", bad " << stats.bad << ", repeated " << stats.repeated
               << ", detections " << stats.detections << "\n";
   });

@@ -7,13 +7,10 @@
 
 int main(int argc, char** argv) {
   using namespace thermovis;
-  CLI::App app{"thermovis-match: stereo correspondences of every detected target"};
-  node::CommonOptions common;
-  common.service = "thermovis-match";
+  node::ServiceApp app("thermovis-match", "stereo correspondences of every detected target",
+                       /*with_rig=*/false);
   match_service::MatchConfig config;
   std::string method = "ncc";
-  double deadline_ms = 20.0;
-  node::add_common_options(app, common, /*with_rig=*/false);
   std::string band = "both";
   app.add_option("--band", band,
                  "frames to match: both (each box on both pairs; the range stage combines "
@@ -34,20 +31,18 @@ int main(int argc, char** argv) {
                  "detector's latency: at 50 Hz, 4 frames are 80 ms)")
       ->capture_default_str()
       ->check(CLI::Range(1, 64));
-  app.add_option("--deadline-ms", deadline_ms, "DEADLINE QoS period of the frame topic")
-      ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+  app.add_deadline_option("DEADLINE QoS period of the frame topic");
   CLI11_PARSE(app, argc, argv);
-  config.deadline = node::deadline_from_ms(deadline_ms);
+  config.deadline = app.deadline();
 
-  return node::run_service(common, [&] {
+  return node::run_service(app.common, [&] {
     config.match.match.method = match::parse_method(method);
     config.match.band = pipeline::parse_band_choice(band);
-    auto participant = node::make_participant(common);
-    match_service::MatchNode matcher(*participant, config, common.service);
+    auto participant = node::make_participant(app.common);
+    match_service::MatchNode matcher(*participant, config, app.common.service);
     matcher.run();
     const auto stats = matcher.stats();
-    std::cerr << common.service << ": answered " << stats.processed << ", without frame "
+    std::cerr << app.common.service << ": answered " << stats.processed << ", without frame "
               << stats.no_frame << ", bad " << stats.bad << ", overwritten while copied "
               << stats.overwritten << ", points " << stats.points << ", on infrared "
               << stats.infrared_targets << " (left out for room " << stats.infrared_left_out

@@ -7,11 +7,9 @@
 
 int main(int argc, char** argv) {
   using namespace thermovis;
-  CLI::App app{"thermovis-range: ranges of the matched targets on thermovis/ranges"};
-  node::CommonOptions common;
-  common.service = "thermovis-range";
+  node::ServiceApp app("thermovis-range", "ranges of the matched targets on thermovis/ranges",
+                       /*with_rig=*/false);
   range_service::RangeConfig config;
-  node::add_common_options(app, common, /*with_rig=*/false);
   app.add_option("--min-points", config.range.range.min_points, "kept points needed for a distance")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
@@ -19,13 +17,9 @@ int main(int argc, char** argv) {
                "report the distance of the target's visible surface, not of its centre");
   CLI11_PARSE(app, argc, argv);
 
-  return node::run_service(common, [&] {
-    auto participant = node::make_participant(common);
-    range_service::RangeNode ranger(*participant, config, common.service);
-    ranger.run();
-    const auto stats = ranger.stats();
-    std::cerr << common.service << ": answered " << stats.processed << ", ranged " << stats.ranged
-              << ", unranged " << stats.unranged << ", bad " << stats.bad
+  return node::run_node<range_service::RangeNode>(app.common, config, [&](const auto& stats) {
+    std::cerr << app.common.service << ": answered " << stats.processed << ", ranged "
+              << stats.ranged << ", unranged " << stats.unranged << ", bad " << stats.bad
               << ", before the geometry " << stats.no_geometry << "\n";
   });
 }

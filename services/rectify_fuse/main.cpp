@@ -9,14 +9,11 @@
 
 int main(int argc, char** argv) {
   using namespace thermovis;
-  CLI::App app{"thermovis-rectify-fuse: rectification, registration, enhancement and fusion"};
-  node::CommonOptions common;
-  common.service = "thermovis-rectify-fuse";
+  node::ServiceApp app("thermovis-rectify-fuse",
+                       "rectification, registration, enhancement and fusion");
   rectify_fuse::RectifyFuseConfig config;
   std::string method = "fast";
-  double deadline_ms = 20.0;
   bool no_enhance = false;
-  node::add_common_options(app, common);
   runtime::add_grid_options(app, config.grid);
   app.add_option("--fusion", method, "fast | vsmwls | vsmwls-paper")->capture_default_str();
   app.add_flag("--no-enhance", no_enhance, "skip the visible contrast enhancement");
@@ -30,22 +27,20 @@ int main(int argc, char** argv) {
                "rectify the visible pair on a second thread while the infrared pair is "
                "rectified (for machines with a spare core; on a saturated one it delays the "
                "infrared pair that detection waits for)");
-  app.add_option("--deadline-ms", deadline_ms, "DEADLINE QoS period")
-      ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+  app.add_deadline_option("DEADLINE QoS period");
   CLI11_PARSE(app, argc, argv);
 
-  return node::run_service(common, [&] {
+  return node::run_service(app.common, [&] {
     const auto parsed = fuse::method_from_name(method);
     if (!parsed) throw std::invalid_argument("unknown fusion method '" + method + "'");
     config.stage.fusion.method = *parsed;
     if (no_enhance) config.stage.fusion.enhance_visible.reset();
     config.fuse_right_eye = fused_eyes == "both";
     config.parallel_bands = parallel_bands;
-    config.deadline = std::chrono::nanoseconds(static_cast<std::int64_t>(deadline_ms * 1e6));
-    const auto rig = runtime::load_rig_or_default(common.rig);
-    auto participant = node::make_participant(common);
-    rectify_fuse::RectifyFuseNode node(*participant, rig, config, common.service);
+    config.deadline = app.deadline();
+    const auto rig = runtime::load_rig_or_default(app.common.rig);
+    auto participant = node::make_participant(app.common);
+    rectify_fuse::RectifyFuseNode node(*participant, rig, config, app.common.service);
     std::cerr << "thermovis-rectify-fuse: grid " << node.grid_size().width << "x"
               << node.grid_size().height << "\n";
     node.run();

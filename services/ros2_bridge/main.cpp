@@ -8,16 +8,13 @@
 
 int main(int argc, char** argv) {
   using namespace thermovis;
-  CLI::App app{
-      "thermovis-ros2: republishes the pipeline as ROS 2 topics (sensor_msgs/Image, "
-      "thermovis_msgs) on a UDP participant"};
-  node::CommonOptions common;
-  common.service = "thermovis-ros2";
+  node::ServiceApp app("thermovis-ros2",
+                       "republishes the pipeline as ROS 2 topics (sensor_msgs/Image, "
+                       "thermovis_msgs) on a UDP participant");
   transport::ParticipantConfig ros;
   ros.profile = transport::kUdpProfile;
   ros.domain_id = -1;
   ros2_bridge::Ros2BridgeConfig config;
-  node::add_common_options(app, common);
   app.add_option("--ros-domain", ros.domain_id,
                  "DDS domain of the ROS 2 topics (ROS_DOMAIN_ID; default: --domain)")
       ->check(CLI::Range(0, 232));
@@ -31,15 +28,15 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
 
-  return node::run_service(common, [&] {
-    auto pipeline = node::make_participant(common);
+  return node::run_service(app.common, [&] {
+    auto pipeline = node::make_participant(app.common);
     if (ros.domain_id < 0) ros.domain_id = pipeline->domain_id();
-    ros.name = common.service + "-ros";
+    ros.name = app.common.service + "-ros";
     transport::Participant ros_participant(ros);
-    ros2_bridge::Ros2BridgeNode bridge(*pipeline, ros_participant, config, common.service);
+    ros2_bridge::Ros2BridgeNode bridge(*pipeline, ros_participant, config, app.common.service);
     bridge.run();
     const auto& s = bridge.stats();
-    std::cerr << common.service << ": published " << s.images << " images, " << s.ranges
+    std::cerr << app.common.service << ": published " << s.images << " images, " << s.ranges
               << " range arrays, " << s.detections << " detection arrays; dropped unsubscribed "
               << s.unsubscribed << ", overwritten " << s.overwritten << ", bad " << s.bad << "\n";
   });

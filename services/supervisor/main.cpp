@@ -10,15 +10,13 @@
 
 int main(int argc, char** argv) {
   using namespace thermovis;
-  CLI::App app{"thermovis-supervisor: starts, watches and restarts the pipeline's services"};
-  node::CommonOptions common;
-  common.service = "thermovis-supervisor";
+  node::ServiceApp app("thermovis-supervisor",
+                       "starts, watches and restarts the pipeline's services");
   std::string manifest_path, scene, log_dir = "/tmp/thermovis-logs";
   std::vector<std::string> extra_vars;
   double seconds = 0.0;
   bool json = false;
   supervisor::SupervisorConfig config;
-  node::add_common_options(app, common);
   app.add_option("--manifest", manifest_path, "pipeline manifest (default deploy/pipeline.yaml)");
   app.add_option("--scene", scene,
                  "simulated scene for the manifest's ${scene} (default deploy/scenes/paper.yaml)");
@@ -36,7 +34,7 @@ int main(int argc, char** argv) {
     const auto manifest =
         process::load_manifest(manifest_path.empty() ? runtime::shipped_file("pipeline.yaml")
                                                      : std::filesystem::path(manifest_path));
-    config.vars = supervisor::default_vars(common.domain, common.profile, scene);
+    config.vars = supervisor::default_vars(app.common.domain, app.common.profile, scene);
     for (const std::string& item : extra_vars) {
       const auto eq = item.find('=');
       if (eq == std::string::npos || eq == 0)
@@ -44,7 +42,7 @@ int main(int argc, char** argv) {
       config.vars[item.substr(0, eq)] = item.substr(eq + 1);
     }
     config.log_dir = log_dir;
-    auto participant = node::make_participant(common);
+    auto participant = node::make_participant(app.common);
     supervisor::Supervisor sup(*participant, manifest, config);
     sup.start();
     const auto start = std::chrono::steady_clock::now();

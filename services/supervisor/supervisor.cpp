@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "thermovis/metrics/percentile.hpp"
 #include "thermovis/node/frame_codec.hpp"
 #include "thermovis/node/health.hpp"
 #include "thermovis/runtime/rig_io.hpp"
@@ -43,14 +44,6 @@ const char* stage_name(Stage stage) {
     default:
       return "none";
   }
-}
-
-double percentile(std::vector<double> values, double p) {
-  if (values.empty()) return 0.0;
-  std::sort(values.begin(), values.end());
-  const auto rank =
-      static_cast<std::size_t>(std::ceil(p / 100.0 * static_cast<double>(values.size())));
-  return values[std::clamp<std::size_t>(rank, 1, values.size()) - 1];
 }
 
 Supervisor::Supervisor(transport::Participant& participant, process::Manifest manifest,
@@ -168,8 +161,8 @@ void Supervisor::reset_statistics() {
 LatencySummary Supervisor::summary() const {
   LatencySummary s;
   s.frames = latencies_ms_.size();
-  s.p50_ms = percentile(latencies_ms_, 50);
-  s.p99_ms = percentile(latencies_ms_, 99);
+  s.p50_ms = metrics::percentile(latencies_ms_, 50);
+  s.p99_ms = metrics::percentile(latencies_ms_, 99);
   s.max_ms =
       latencies_ms_.empty() ? 0.0 : *std::max_element(latencies_ms_.begin(), latencies_ms_.end());
   s.over_deadline = late_.size();
@@ -198,7 +191,8 @@ LatencySummary Supervisor::summary() const {
   s.bad_timing -= std::min(s.bad_timing, base_bad_timing_);
   s.deadline_misses -= std::min(s.deadline_misses, base_deadline_misses_);
   for (const auto& [stage, values] : stage_ms_) {
-    s.stages.push_back({stage_name(stage), percentile(values, 50), percentile(values, 99),
+    s.stages.push_back({stage_name(stage), metrics::percentile(values, 50),
+                        metrics::percentile(values, 99),
                         *std::max_element(values.begin(), values.end())});
   }
   return s;

@@ -126,7 +126,4 @@ std::map<std::string, std::string> default_vars(int domain, const std::string& p
 std::string summary_json(const LatencySummary& summary);
 std::string summary_text(const LatencySummary& summary, double deadline_ms);
 
-// p-th percentile (0..100) by nearest rank; 0 for an empty list.
-double percentile(std::vector<double> values, double p);
-
 }  // namespace thermovis::supervisor

@@ -15,6 +15,7 @@
 #include <stdexcept>
 
 #include "command.hpp"
+#include "thermovis/metrics/percentile.hpp"
 #include "thermovis/pipeline/capture_pipeline.hpp"
 #include "thermovis/runtime/grid_options.hpp"
 #include "thermovis/runtime/rig_io.hpp"
@@ -52,13 +53,7 @@ struct StageTime {
     for (double v : ms) s += v;
     return ms.empty() ? 0.0 : s / static_cast<double>(ms.size());
   }
-  double percentile(double p) const {
-    if (ms.empty()) return 0.0;
-    std::vector<double> v = ms;
-    const auto k = static_cast<std::size_t>(p / 100.0 * static_cast<double>(v.size() - 1) + 0.5);
-    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
-    return v[k];
-  }
+  double percentile(double p) const { return thermovis::metrics::percentile(ms, p); }
 };
 
 struct PerTarget {

@@ -9,6 +9,7 @@
 #include <thread>
 
 #include "command.hpp"
+#include "thermovis/node/health.hpp"
 #include "thermovis/node/service.hpp"
 #include "thermovis/transport/clock.hpp"
 #include "thermovis/transport/qos.hpp"
@@ -22,22 +23,6 @@ struct Options {
   double wait_s = 3.0;  // discovery of every service on a busy host
   bool json = false;
 };
-
-const char* state_name(thermovis::HealthState state) {
-  switch (state) {
-    case thermovis::HEALTH_STARTING:
-      return "starting";
-    case thermovis::HEALTH_OK:
-      return "ok";
-    case thermovis::HEALTH_DEGRADED:
-      return "degraded";
-    case thermovis::HEALTH_FAILED:
-      return "failed";
-    case thermovis::HEALTH_STOPPING:
-      return "stopping";
-  }
-  return "unknown";
-}
 
 int run_status(const Options& opt) {
   auto participant = thermovis::node::make_participant(opt.common);
@@ -60,7 +45,7 @@ int run_status(const Options& opt) {
       offered += t.offered_deadline_missed();
     }
     services.push_back({{"service", name},
-                        {"state", state_name(h.state())},
+                        {"state", thermovis::node::health_state_name(h.state())},
                         {"age_s", static_cast<double>(now - h.time_ns()) / 1e9},
                         {"frames_processed", h.frames_processed()},
                         {"errors", h.errors()},

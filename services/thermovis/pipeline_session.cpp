@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include "thermovis/metrics/percentile.hpp"
 #include "thermovis/node/frame_codec.hpp"
 #include "thermovis/node/geometry_topic.hpp"
 #include "thermovis/node/service.hpp"
@@ -241,7 +242,7 @@ RangeErrorSummary PipelineSession::errors() const {
     for (double e : abs_errors) sum += e;
     s.mean_abs_error_m = sum / static_cast<double>(abs_errors.size());
     s.mean_abs_relative_error = relative / static_cast<double>(abs_errors.size());
-    s.p95_abs_error_m = supervisor::percentile(abs_errors, 95);
+    s.p95_abs_error_m = metrics::percentile(abs_errors, 95);
     s.max_abs_error_m = *std::max_element(abs_errors.begin(), abs_errors.end());
   }
   for (auto& [id, t] : per) {

@@ -9,14 +9,11 @@
 
 int main(int argc, char** argv) {
   using namespace thermovis;
-  CLI::App app{
-      "thermovis-view: the fusion-ranging image, live in a browser and on thermovis/display"};
-  node::CommonOptions common;
-  common.service = "thermovis-view";
-  view::ViewConfig config;
+  node::ServiceApp app("thermovis-view",
+                       "the fusion-ranging image, live in a browser and on thermovis/display");
   std::string host = "127.0.0.1";
   int port = 8090;
-  node::add_common_options(app, common);
+  view::ViewConfig config;
   app.add_option("--port", port, "HTTP port (0: any free port, printed)")
       ->capture_default_str()
       ->check(CLI::Range(0, 65535));
@@ -33,18 +30,18 @@ int main(int argc, char** argv) {
       ->check(CLI::PositiveNumber);
   CLI11_PARSE(app, argc, argv);
 
-  return node::run_service(common, [&] {
-    auto participant = node::make_participant(common);
+  return node::run_service(app.common, [&] {
+    auto participant = node::make_participant(app.common);
     view::ViewHub hub;
-    view::ViewNode viewer(*participant, hub, config, common.service);
+    view::ViewNode viewer(*participant, hub, config, app.common.service);
     view::WebServer web(hub, host, port);
     web.start();
-    std::cout << common.service << ": serving http://" << (host == "0.0.0.0" ? "127.0.0.1" : host)
-              << ":" << web.port() << "/" << std::endl;
+    std::cout << app.common.service << ": serving http://"
+              << (host == "0.0.0.0" ? "127.0.0.1" : host) << ":" << web.port() << "/" << std::endl;
     viewer.run();
     web.stop();
     const auto s = viewer.stats();
-    std::cerr << common.service << ": fused frames " << s.fused_frames << ", composed "
+    std::cerr << app.common.service << ": fused frames " << s.fused_frames << ", composed "
               << s.composed << ", encoded " << s.encoded << ", overwritten while copied "
               << s.overwritten << "\n";
   });

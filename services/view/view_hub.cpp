@@ -3,27 +3,30 @@
 #include <algorithm>
 #include <cstdlib>
 #include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "thermovis/metrics/percentile.hpp"
 
 namespace thermovis::view {
 namespace {
 
 std::size_t index_of(display::View view) { return static_cast<std::size_t>(view); }
 
-double percentile(std::vector<double> values, double p) {
-  if (values.empty()) return 0.0;
-  std::sort(values.begin(), values.end());
-  const auto rank =
-      static_cast<std::size_t>(p / 100.0 * static_cast<double>(values.size() - 1) + 0.5);
-  return values[std::min(rank, values.size() - 1)];
-}
-
 nlohmann::json stats(const std::vector<double>& values) {
-  return {{"p50_ms", percentile(values, 50)},
-          {"p95_ms", percentile(values, 95)},
+  return {{"p50_ms", metrics::percentile(values, 50)},
+          {"p95_ms", metrics::percentile(values, 95)},
           {"max_ms", values.empty() ? 0.0 : *std::max_element(values.begin(), values.end())}};
 }
 
 }  // namespace
+
+std::shared_ptr<EncodedFrame> encode_jpeg(const cv::Mat& image, int quality) {
+  auto frame = std::make_shared<EncodedFrame>();
+  std::vector<unsigned char> buffer;
+  cv::imencode(".jpg", image, buffer, {cv::IMWRITE_JPEG_QUALITY, quality});
+  frame->jpeg.assign(buffer.begin(), buffer.end());
+  return frame;
+}
 
 void ViewHub::publish(display::View view, std::shared_ptr<const EncodedFrame> frame) {
   {

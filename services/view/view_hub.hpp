@@ -13,6 +13,8 @@
 #include <string>
 #include <vector>
 
+#include <opencv2/core/mat.hpp>
+
 #include "thermovis/display/ranging_image.hpp"
 
 namespace thermovis::view {
@@ -24,6 +26,10 @@ struct EncodedFrame {
   std::int64_t encoded_ns = 0;  // when the JPEG was ready (Unix epoch)
   std::string jpeg;
 };
+
+// `image` (8-bit, 1 or 3 channels) as a JPEG of `quality` (0..100); the caller numbers, stamps and
+// times the frame.
+std::shared_ptr<EncodedFrame> encode_jpeg(const cv::Mat& image, int quality);
 
 // One frame the page showed: capture time from the stamp in its pixels, and when it appeared.
 struct DisplaySample {

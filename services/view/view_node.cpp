@@ -3,9 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <nlohmann/json.hpp>
-
-#include <opencv2/imgcodecs.hpp>
 
 #include "thermovis/node/frame_codec.hpp"
 #include "thermovis/node/service.hpp"
@@ -34,44 +31,6 @@ transport::TopicQos frame_reader_qos() {
 transport::TopicQos display_writer_qos() {
   return transport::frame_topic_qos(std::chrono::nanoseconds(0), 2, 2);
 }
-
-display::Target target_of(const TargetRange& r) {
-  display::Target t;
-  t.id = r.target_id();
-  t.label = r.label().to_string();
-  t.box = {r.box().x(), r.box().y(), r.box().width(), r.box().height()};
-  t.distance_m = r.distance_m();
-  t.sigma_m = r.sigma_m();
-  t.band = r.band();
-  t.points = r.point_count();
-  return t;
-}
-
-display::Target target_of(const Detection& d) {
-  display::Target t;
-  t.id = d.target_id();
-  t.label = d.label().to_string();
-  t.box = {d.box().x(), d.box().y(), d.box().width(), d.box().height()};
-  return t;
-}
-
-const char* state_name(HealthState state) {
-  switch (state) {
-    case HEALTH_STARTING:
-      return "starting";
-    case HEALTH_OK:
-      return "ok";
-    case HEALTH_DEGRADED:
-      return "degraded";
-    case HEALTH_FAILED:
-      return "failed";
-    case HEALTH_STOPPING:
-      return "stopping";
-  }
-  return "unknown";
-}
-
-double finite_or_null(double v) { return std::isfinite(v) ? v : -1.0; }
 
 // Copies the newest left image of `reader`'s samples into `ring` (reusing the oldest buffer),
 // when `wanted`; the loans go back when `samples` goes out of scope. False when the writer reused
@@ -107,10 +66,12 @@ ViewNode::ViewNode(transport::Participant& participant, ViewHub& hub, const View
       timing_in_(participant, transport::topics::kTiming, transport::event_topic_qos(64)),
       health_in_(participant, transport::topics::kHealth, transport::state_topic_qos()),
       display_out_(participant, transport::topics::kDisplay, display_writer_qos()),
-      health_(participant, service_name, [this] {
-        return std::vector<transport::TopicCountersSnapshot>{
-            fused_in_.counters(), ranges_in_.counters(), display_out_.counters()};
-      }) {
+      health_(participant, service_name,
+              [this] {
+                return std::vector<transport::TopicCountersSnapshot>{
+                    fused_in_.counters(), ranges_in_.counters(), display_out_.counters()};
+              }),
+      pipeline_(config.deadline_ms, config.history_s) {
   health_.set_state(HEALTH_STARTING, "waiting for fused frames");
 }
 
@@ -161,44 +122,23 @@ void ViewNode::take_messages() {
   const std::int64_t now = transport::now_ns();
   auto ranges = ranges_in_.take();
   for (std::size_t i = 0; i < ranges.size(); ++i) {
-    const RangeArray& a = ranges[i];
-    RangeResult r;
-    r.seq = a.frame_seq();
-    r.capture_time_ns = a.capture_time_ns();
-    r.received_ns = now;
-    r.latency_ms = transport::latency_ms(a.stamps(), a.capture_time_ns());
-    for (const TargetRange& t : a.targets()) r.targets.push_back(target_of(t));
-    ranges_.push_back(std::move(r));
+    ranges_.push_back(range_result_of(ranges[i], now));
     ++stats_.range_arrays;
     last_range_ns_ = now;
   }
   while (ranges_.size() > kKeptResults) ranges_.pop_front();
 
   auto detections = detections_in_.take();
-  for (std::size_t i = 0; i < detections.size(); ++i) {
-    std::vector<display::Target> targets;
-    for (const Detection& d : detections[i].detections()) targets.push_back(target_of(d));
-    detections_[detections[i].frame_seq()] = std::move(targets);
-  }
+  for (std::size_t i = 0; i < detections.size(); ++i)
+    detections_[detections[i].frame_seq()] = targets_of(detections[i]);
   while (detections_.size() > kKeptResults) detections_.erase(detections_.begin());
 
   auto timing = timing_in_.take();
-  for (std::size_t i = 0; i < timing.size(); ++i) {
-    const double ms =
-        static_cast<double>(timing[i].output_time_ns() - timing[i].capture_time_ns()) / 1e6;
-    latency_.emplace_back(now, ms);
-    ++timing_frames_;
-    if (ms > config_.deadline_ms) ++over_deadline_;
-  }
-  const auto window_ns = static_cast<std::int64_t>(config_.history_s * 1e9);
-  while (!latency_.empty() && now - latency_.front().first > window_ns) latency_.pop_front();
+  for (std::size_t i = 0; i < timing.size(); ++i) pipeline_.add_timing(timing[i], now);
+  pipeline_.forget_old(now);
 
   auto health = health_in_.take();
-  for (std::size_t i = 0; i < health.size(); ++i) {
-    const std::string name = health[i].service().to_string();
-    services_[name] = health[i];
-    services_seen_ns_[name] = now;
-  }
+  for (std::size_t i = 0; i < health.size(); ++i) pipeline_.add_health(health[i], now);
 }
 
 const ViewNode::Image* ViewNode::find(const std::deque<Image>& ring, std::uint64_t seq) const {
@@ -239,13 +179,7 @@ void ViewNode::compose(const Image& fused, const RangeResult* ranges, const std:
   status.frame_seq = fused.seq;
   status.capture_time_ns = fused.capture_time_ns;
   status.latency_ms = ranges != nullptr ? ranges->latency_ms : std::nan("");
-  status.deadline_ms = config_.deadline_ms;
-  status.frames = timing_frames_;
-  status.over_deadline = over_deadline_;
-  for (const auto& [name, h] : services_) {
-    for (const TopicHealth& t : h.topics())
-      status.deadline_misses += t.requested_deadline_missed() + t.offered_deadline_missed();
-  }
+  pipeline_.fill(status);
   status.note = note;
   std::vector<display::Target> targets;
   if (ranges != nullptr) {
@@ -269,12 +203,8 @@ void ViewNode::compose(const Image& fused, const RangeResult* ranges, const std:
     display_out_.publish(std::move(loan));
     ++stats_.published;
 
-    const std::vector<int> params{cv::IMWRITE_JPEG_QUALITY, config_.jpeg_quality};
     const auto encode = [&](View view, const cv::Mat& composed) {
-      auto frame = std::make_shared<EncodedFrame>();
-      std::vector<unsigned char> buffer;
-      cv::imencode(".jpg", composed, buffer, params);
-      frame->jpeg.assign(buffer.begin(), buffer.end());
+      auto frame = encode_jpeg(composed, config_.jpeg_quality);
       frame->number = ++encoded_number_[static_cast<std::size_t>(view)];
       frame->seq = fused.seq;
       frame->capture_time_ns = fused.capture_time_ns;
@@ -307,63 +237,12 @@ void ViewNode::compose(const Image& fused, const RangeResult* ranges, const std:
     return;
   }
 
-  nlohmann::json list = nlohmann::json::array();
-  for (const display::Target& t : targets) {
-    list.push_back({{"id", t.id},
-                    {"label", t.label},
-                    {"ranged", std::isfinite(t.distance_m)},
-                    {"distance_m", finite_or_null(t.distance_m)},
-                    {"sigma_m", t.sigma_m},
-                    {"band", display::band_name(t.band)},
-                    {"points", t.points},
-                    {"box", {t.box.x, t.box.y, t.box.width, t.box.height}}});
-  }
-  hub_.set_targets_json(nlohmann::json{
-      {"frame_seq", fused.seq},
-      {"capture_time_ns", fused.capture_time_ns},
-      {"latency_ms", finite_or_null(status.latency_ms)},
-      {"note", note},
-      {"targets", list}}.dump());
+  hub_.set_targets_json(targets_json(status, targets));
 }
 
 void ViewNode::update_status_json() {
   last_status_ = std::chrono::steady_clock::now();
-  const std::int64_t now = transport::now_ns();
-  nlohmann::json latency = nlohmann::json::array();
-  for (const auto& [at, ms] : latency_)
-    latency.push_back({static_cast<double>(at - now) / 1e9, ms});
-  nlohmann::json services = nlohmann::json::array();
-  std::uint64_t misses = 0;
-  for (const auto& [name, h] : services_) {
-    std::uint64_t service_misses = 0;
-    for (const TopicHealth& t : h.topics())
-      service_misses += t.requested_deadline_missed() + t.offered_deadline_missed();
-    misses += service_misses;
-    services.push_back({{"service", name},
-                        {"state", state_name(h.state())},
-                        {"frames", h.frames_processed()},
-                        {"errors", h.errors()},
-                        {"deadline_misses", service_misses},
-                        {"message", h.message().to_string()},
-                        {"age_s", static_cast<double>(now - services_seen_ns_[name]) / 1e9}});
-  }
-  hub_.set_status_json(nlohmann::json{{"time_ns", now},
-                                      {"deadline_ms", config_.deadline_ms},
-                                      {"history_s", config_.history_s},
-                                      {"frames", timing_frames_},
-                                      {"over_deadline", over_deadline_},
-                                      {"deadline_misses", misses},
-                                      {"latency", latency},
-                                      {"health", services},
-                                      {"view",
-                                       {{"fused_frames", stats_.fused_frames},
-                                        {"copied", stats_.copied},
-                                        {"overwritten", stats_.overwritten},
-                                        {"range_arrays", stats_.range_arrays},
-                                        {"composed", stats_.composed},
-                                        {"encoded", stats_.encoded},
-                                        {"published", stats_.published}}}}
-                           .dump());
+  hub_.set_status_json(pipeline_.json(transport::now_ns(), stats_));
 }
 
 }  // namespace thermovis::view

@@ -20,12 +20,11 @@
 #include "thermovis/display/ranging_image.hpp"
 #include "thermovis/enhance/infrared_agc.hpp"
 #include "thermovis/frames.h"
-#include "thermovis/health.h"
 #include "thermovis/node/health.hpp"
-#include "thermovis/perception.h"
 #include "thermovis/transport/reader.hpp"
 #include "thermovis/transport/writer.hpp"
 #include "view_hub.hpp"
+#include "view_status.hpp"
 
 namespace thermovis::view {
 
@@ -36,16 +35,6 @@ struct ViewConfig {
   double history_s = 10.0;      // latency plot window
   double panel_scale = 0.5;     // side-by-side panels
   double stale_ranges_s = 0.5;  // without ranges this long, show the newest fused frame bare
-};
-
-struct ViewStats {
-  std::uint64_t fused_frames = 0;  // fused frames received
-  std::uint64_t copied = 0;        // left images copied out of loans
-  std::uint64_t overwritten = 0;   // loans reused by the writer while copied (dropped)
-  std::uint64_t range_arrays = 0;  // range results received
-  std::uint64_t composed = 0;      // fusion-ranging images made
-  std::uint64_t encoded = 0;       // JPEGs made (all views)
-  std::uint64_t published = 0;     // thermovis/display samples
 };
 
 class ViewNode {
@@ -63,14 +52,6 @@ class ViewNode {
   };
 
  private:
-  struct RangeResult {
-    std::uint64_t seq = 0;
-    std::int64_t capture_time_ns = 0;
-    std::int64_t received_ns = 0;
-    double latency_ms = 0.0;
-    std::vector<display::Target> targets;
-  };
-
   void take_frames();
   void take_messages();
   void maybe_compose();
@@ -96,11 +77,7 @@ class ViewNode {
   std::chrono::steady_clock::time_point last_compose_{};
   std::int64_t last_range_ns_ = 0;
   std::uint64_t encoded_number_[ViewHub::kViews] = {};
-  // Latency history from thermovis/timing: (receive time, capture-to-output ms).
-  std::deque<std::pair<std::int64_t, double>> latency_;
-  std::uint64_t timing_frames_ = 0, over_deadline_ = 0;
-  std::map<std::string, Health> services_;
-  std::map<std::string, std::int64_t> services_seen_ns_;
+  PipelineStatus pipeline_;  // latency and health of the services
   std::chrono::steady_clock::time_point last_status_{};
   ViewStats stats_;
 };

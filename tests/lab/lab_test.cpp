@@ -28,6 +28,7 @@
 #include "../integration/pipeline/range_truth.hpp"
 #include "lab_harness.hpp"
 #include "thermovis/frames.h"
+#include "thermovis/metrics/percentile.hpp"
 #include "thermovis/runtime/rig_io.hpp"
 #include "thermovis/runtime/scene_io.hpp"
 #include "thermovis/sim/simulated_rig.hpp"
@@ -43,6 +44,7 @@ namespace {
 
 using namespace std::chrono_literals;
 using Clock = std::chrono::steady_clock;
+using thermovis::metrics::percentile;
 using thermovis::test::ChildProcess;
 using thermovis::test::Lab;
 namespace tv = thermovis;
@@ -108,13 +110,6 @@ class SplitPipeline {
   };
   std::vector<Service> services_;
 };
-
-double percentile(std::vector<double> values, double p) {
-  if (values.empty()) return 0.0;
-  std::sort(values.begin(), values.end());
-  const auto rank = static_cast<std::size_t>(std::ceil(p / 100.0 * values.size()));
-  return values[std::min(values.size() - 1, rank == 0 ? 0 : rank - 1)];
-}
 
 // Latencies of one result's path, ms: each stage's processing and each hop between stages
 // (from one stage's end to the next one's start: transport plus waiting), and the last hop to

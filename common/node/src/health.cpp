@@ -1,6 +1,7 @@
 #include "thermovis/node/health.hpp"
 
 #include <iostream>
+#include <iterator>
 
 #include "thermovis/transport/clock.hpp"
 #include "thermovis/transport/qos.hpp"
@@ -19,6 +20,20 @@ std::string clip(const std::string& text, std::size_t max) {
 }
 
 }  // namespace
+
+const char* health_state_name(HealthState state) {
+  // In the order of the IDL enum (health.idl).
+  static constexpr const char* kNames[] = {"starting", "ok", "degraded", "failed", "stopping"};
+  const auto i = static_cast<std::size_t>(state);
+  return i < std::size(kNames) ? kNames[i] : "unknown";
+}
+
+std::uint64_t deadline_misses(const Health& health) {
+  std::uint64_t misses = 0;
+  for (const TopicHealth& t : health.topics())
+    misses += std::uint64_t{t.requested_deadline_missed()} + t.offered_deadline_missed();
+  return misses;
+}
 
 void log_bad_input(const std::string& service, std::uint64_t count, const std::string& message) {
   // The log names every problem; a flood of bad frames is thinned to every 100th.

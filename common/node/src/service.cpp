@@ -80,4 +80,16 @@ std::chrono::nanoseconds deadline_from_ms(double milliseconds) {
   return std::chrono::nanoseconds(static_cast<std::int64_t>(milliseconds * 1e6));
 }
 
+ServiceApp::ServiceApp(const std::string& service, const std::string& description, bool with_rig)
+    : CLI::App(service + ": " + description) {
+  common.service = service;
+  add_common_options(*this, common, with_rig);
+}
+
+void ServiceApp::add_deadline_option(const std::string& help) {
+  add_option("--deadline-ms", deadline_ms_, help)
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+}
+
 }  // namespace thermovis::node

@@ -313,261 +313,325 @@ void McapReader::read_messages(const std::function<bool(const McapMessageView&)>
   scan(on_message, nullptr);
 }
 
-void McapReader::scan(const std::function<bool(const McapMessageView&)>& on_message, Scan* check) {
+// One pass over the data section, in file order. run() frames each record and hands it to the
+// handler of its opcode; a handler that returns false ends the pass (the caller wants no more
+// messages). Offsets (`at`) are bytes from the start of the file and name the record in errors.
+class McapReader::DataPass {
+ public:
+  DataPass(McapReader& reader, const std::function<bool(const McapMessageView&)>& on_message,
+           Scan* check)
+      : r_(reader), on_message_(on_message), check_(check) {}
+  ~DataPass() { ZSTD_freeDCtx(dctx_); }
+  DataPass(const DataPass&) = delete;
+  DataPass& operator=(const DataPass&) = delete;
+
+  void run();
+
+ private:
+  // `content` is the record's body, `length` its size in bytes (without the record header).
+  bool dispatch(std::uint8_t opcode, fmt::In& content, std::uint64_t at, std::uint64_t length,
+                bool was_after_chunk);
+  void on_data_end(fmt::In& content, std::uint64_t at, std::uint64_t length);
+  // A Schema or Channel record, in the data section or inside a chunk; false for any other.
+  bool on_definition(std::uint8_t opcode, fmt::In& content, std::uint64_t at);
+  void on_schema(McapSchema s, std::uint64_t at);
+  void on_channel(McapChannel c, std::uint64_t at);
+  bool on_message(fmt::In& content, std::uint64_t at);
+  bool on_chunk(fmt::In& content, std::uint64_t at, std::uint64_t length);
+  // The chunk's records, uncompressed (in place when stored uncompressed).
+  const std::uint8_t* chunk_records(const McapChunkIndex& chunk, const std::uint8_t* stored,
+                                    std::uint64_t at);
+  // One record inside a chunk; `inner_at` is its offset in the uncompressed records.
+  bool on_chunk_record(std::uint8_t opcode, fmt::In& record, const McapChunkIndex& chunk,
+                       std::uint64_t inner_at, std::uint64_t at);
+  void on_message_index(fmt::In& content, std::uint64_t at, std::uint64_t length,
+                        bool was_after_chunk);
+
+  McapReader& r_;
+  const std::function<bool(const McapMessageView&)>& on_message_;
+  Scan* check_;            // nullptr when only reading messages
+  std::uint32_t crc_ = 0;  // of the data section so far, from the start of the file
+  std::vector<std::uint8_t> content_, records_;
+  ZSTD_DCtx* dctx_ = nullptr;
+};
+
+void McapReader::DataPass::run() {
   std::uint8_t head[fmt::kRecordHeaderSize];
-  read_at(8, head, sizeof(head));
+  r_.read_at(8, head, sizeof(head));
   std::uint64_t at = 8 + fmt::kRecordHeaderSize + fmt::load_u64(head + 1);
   std::vector<std::uint8_t> prefix(at);
-  read_at(0, prefix.data(), prefix.size());
-  std::uint32_t crc = fmt::crc32(0, prefix.data(), prefix.size());
-  std::vector<std::uint8_t> content, records;
-  ZSTD_DCtx* dctx = nullptr;
-  struct DctxFree {
-    ZSTD_DCtx*& ctx;
-    ~DctxFree() { ZSTD_freeDCtx(ctx); }
-  } dctx_free{dctx};
-
-  const auto add_schema = [&](McapSchema s, std::uint64_t where) {
-    if (s.id == 0) return;  // invalid by the specification: ignored
-    const auto it = schemas_.find(s.id);
-    if (it != schemas_.end() && !same(it->second, s))
-      fail("Schema " + std::to_string(s.id) + " recorded twice with different contents", where);
-    if (check != nullptr) check->schema_ids.insert(s.id);
-    schemas_[s.id] = std::move(s);
-  };
-  const auto add_channel = [&](McapChannel c, std::uint64_t where) {
-    if (c.schema_id != 0 && schemas_.count(c.schema_id) == 0)
-      fail("Channel " + std::to_string(c.id) + " ('" + c.topic + "') refers to schema " +
-               std::to_string(c.schema_id) + " before any Schema record defines it",
-           where);
-    const auto it = channels_.find(c.id);
-    if (it != channels_.end() && !same(it->second, c))
-      fail("Channel " + std::to_string(c.id) + " recorded twice with different contents", where);
-    if (check != nullptr) check->channel_ids.insert(c.id);
-    channels_[c.id] = std::move(c);
-  };
-  // Returns false when the caller wants no more messages.
-  const auto message = [&](fmt::In& in, std::uint64_t where) {
-    McapMessageView m;
-    m.channel_id = in.u16();
-    m.sequence = in.u32();
-    m.log_time = in.u64();
-    m.publish_time = in.u64();
-    m.size = in.remaining();
-    m.data = in.bytes(m.size, "message data");
-    if (channels_.count(m.channel_id) == 0)
-      fail("Message on channel " + std::to_string(m.channel_id) +
-               " before any Channel record defines it",
-           where);
-    if (check != nullptr) {
-      McapStatistics& s = check->counted;
-      if (s.message_count == 0) s.message_start_time = s.message_end_time = m.log_time;
-      ++s.message_count;
-      s.message_start_time = std::min(s.message_start_time, m.log_time);
-      s.message_end_time = std::max(s.message_end_time, m.log_time);
-      ++s.channel_message_counts[m.channel_id];
-    }
-    return on_message ? on_message(m) : true;
-  };
-
+  r_.read_at(0, prefix.data(), prefix.size());
+  crc_ = fmt::crc32(0, prefix.data(), prefix.size());
+  const std::uint64_t footer = r_.footer_offset_;
   for (;;) {
-    if (at >= footer_offset_ || footer_offset_ - at < fmt::kRecordHeaderSize)
-      fail("no Data End record: the data section runs into the Footer", at);
-    read_at(at, head, sizeof(head));
+    if (at >= footer || footer - at < fmt::kRecordHeaderSize)
+      r_.fail("no Data End record: the data section runs into the Footer", at);
+    r_.read_at(at, head, sizeof(head));
     const std::uint8_t opcode = head[0];
     const std::uint64_t length = fmt::load_u64(head + 1);
     const char* name = fmt::opcode_name(opcode);
-    if (length > footer_offset_ - at - fmt::kRecordHeaderSize) {
-      fail(std::string(name) + " record claims " + std::to_string(length) + " bytes, only " +
-               std::to_string(footer_offset_ - at - fmt::kRecordHeaderSize) +
-               " remain before the Footer: truncated or corrupt",
-           at);
+    if (length > footer - at - fmt::kRecordHeaderSize) {
+      r_.fail(std::string(name) + " record claims " + std::to_string(length) + " bytes, only " +
+                  std::to_string(footer - at - fmt::kRecordHeaderSize) +
+                  " remain before the Footer: truncated or corrupt",
+              at);
     }
-    content.resize(length);
-    read_at(at + fmt::kRecordHeaderSize, content.data(), content.size());
+    content_.resize(length);
+    r_.read_at(at + fmt::kRecordHeaderSize, content_.data(), content_.size());
+    fmt::In in(content_.data(), content_.size());
     if (opcode == fmt::kDataEnd) {
-      fmt::In in(content.data(), content.size());
-      std::uint32_t recorded = 0;
-      try {
-        recorded = in.u32();
-      } catch (const fmt::ShortRecord& e) {
-        fail(std::string("Data End: ") + e.what(), at);
-      }
-      if (recorded != 0) {
-        if (recorded != crc)
-          fail("data section CRC mismatch (Data End says " + hex32(recorded) + ", the bytes give " +
-                   hex32(crc) + "): the data section is corrupt",
-               at);
-        if (check != nullptr) check->result.data_crc_checked = true;
-      }
-      const std::uint64_t end = at + fmt::kRecordHeaderSize + length;
-      if (summary_start_ != 0 && end != summary_start_)
-        fail("the data section ends at byte " + std::to_string(end) +
-                 " but the Footer starts the summary at byte " + std::to_string(summary_start_),
-             at);
+      on_data_end(in, at, length);
       return;
     }
-    crc = fmt::crc32(crc, head, sizeof(head));
-    crc = fmt::crc32(crc, content.data(), content.size());
-    fmt::In in(content.data(), content.size());
-    const bool was_after_chunk = check != nullptr && check->after_chunk;
-    if (check != nullptr && opcode != fmt::kMessageIndex) check->after_chunk = false;
+    // The Data End record itself is outside the data section's CRC.
+    crc_ = fmt::crc32(crc_, head, sizeof(head));
+    crc_ = fmt::crc32(crc_, content_.data(), content_.size());
+    const bool was_after_chunk = check_ != nullptr && check_->after_chunk;
+    if (check_ != nullptr && opcode != fmt::kMessageIndex) check_->after_chunk = false;
     try {
-      switch (opcode) {
-        case fmt::kSchema:
-          add_schema(parse_schema(in), at);
-          break;
-        case fmt::kChannel:
-          add_channel(parse_channel(in), at);
-          break;
-        case fmt::kMessage:
-          if (!message(in, at)) return;
-          break;
-        case fmt::kChunk: {
-          McapChunkIndex found;
-          found.chunk_start_offset = at;
-          found.chunk_length = fmt::kRecordHeaderSize + length;
-          found.message_start_time = in.u64();
-          found.message_end_time = in.u64();
-          found.uncompressed_size = in.u64();
-          const std::uint32_t uncompressed_crc = in.u32();
-          found.compression = in.string("compression");
-          const std::uint64_t records_size = in.u64();
-          if (records_size != in.remaining())
-            fail("Chunk records field says " + std::to_string(records_size) +
-                     " bytes, the record holds " + std::to_string(in.remaining()),
-                 at);
-          found.compressed_size = records_size;
-          const std::uint8_t* stored = in.bytes(records_size, "chunk records");
-          if (found.uncompressed_size > kMaxChunkBytes)
-            fail("Chunk claims " + std::to_string(found.uncompressed_size) +
-                     " uncompressed bytes: corrupt (more than 4 GiB)",
-                 at);
-          const std::uint8_t* plain = stored;
-          if (found.compression == "zstd") {
-            if (dctx == nullptr) dctx = ZSTD_createDCtx();
-            records.resize(found.uncompressed_size);
-            const std::size_t n =
-                ZSTD_decompressDCtx(dctx, records.data(), records.size(), stored, records_size);
-            if (ZSTD_isError(n))
-              fail(
-                  std::string("Chunk: zstd cannot decompress its records: ") + ZSTD_getErrorName(n),
-                  at);
-            if (n != found.uncompressed_size)
-              fail("Chunk: decompressed " + std::to_string(n) + " bytes, the chunk says " +
-                       std::to_string(found.uncompressed_size),
-                   at);
-            plain = records.data();
-          } else if (found.compression.empty()) {
-            if (records_size != found.uncompressed_size)
-              fail("uncompressed Chunk of " + std::to_string(records_size) + " bytes says " +
-                       std::to_string(found.uncompressed_size),
-                   at);
-          } else {
-            fail("Chunk compression '" + found.compression +
-                     "' is not supported by this reader (zstd or none)",
-                 at);
-          }
-          if (uncompressed_crc != 0) {
-            const std::uint32_t actual = fmt::crc32(0, plain, found.uncompressed_size);
-            if (actual != uncompressed_crc)
-              fail("Chunk CRC mismatch (the chunk says " + hex32(uncompressed_crc) +
-                       ", its records give " + hex32(actual) + "): the chunk is corrupt",
-                   at);
-          }
-          if (check != nullptr) {
-            check->chunk_messages.clear();
-            check->after_chunk = true;
-            ++check->result.chunks;
-            ++check->counted.chunk_count;
-          }
-          fmt::In inner(plain, found.uncompressed_size);
-          while (inner.remaining() > 0) {
-            const std::uint64_t inner_at = inner.position();
-            const std::uint8_t inner_opcode = inner.u8();
-            const std::uint64_t inner_length = inner.u64();
-            if (inner_length > inner.remaining())
-              fail("a " + std::string(fmt::opcode_name(inner_opcode)) +
-                       " record inside the chunk runs past its end (chunk byte " +
-                       std::to_string(inner_at) + ")",
-                   at);
-            fmt::In record(inner.bytes(inner_length, "record"), inner_length);
-            switch (inner_opcode) {
-              case fmt::kSchema:
-                add_schema(parse_schema(record), at);
-                break;
-              case fmt::kChannel:
-                add_channel(parse_channel(record), at);
-                break;
-              case fmt::kMessage: {
-                fmt::In peek = record;
-                const std::uint16_t channel = peek.u16();
-                peek.u32();
-                const std::uint64_t log_time = peek.u64();
-                if (log_time < found.message_start_time || log_time > found.message_end_time)
-                  fail("a message logged at " + std::to_string(log_time) +
-                           " lies outside its chunk's time range",
-                       at);
-                if (check != nullptr) check->chunk_messages[channel][inner_at] = log_time;
-                if (!message(record, at)) return;
-                break;
-              }
-              default:
-                fail(std::string("a ") + fmt::opcode_name(inner_opcode) +
-                         " record inside a chunk (chunks hold Schema, Channel and Message records)",
-                     at);
-            }
-          }
-          if (check != nullptr) check->chunks.push_back(std::move(found));
-          break;
-        }
-        case fmt::kMessageIndex: {
-          if (check == nullptr) break;
-          if (!was_after_chunk) fail("a Message Index that does not follow a Chunk", at);
-          const std::uint16_t channel = in.u16();
-          const std::uint32_t bytes = in.u32();
-          if (bytes % 16 != 0 || bytes != in.remaining())
-            fail("Message Index entries of " + std::to_string(bytes) + " bytes", at);
-          auto& messages = check->chunk_messages[channel];
-          std::size_t entries = 0;
-          while (in.remaining() > 0) {
-            const std::uint64_t log_time = in.u64();
-            const std::uint64_t offset = in.u64();
-            const auto it = messages.find(offset);
-            if (it == messages.end() || it->second != log_time)
-              fail("Message Index of channel " + std::to_string(channel) +
-                       " points at chunk byte " + std::to_string(offset) +
-                       ", where no message of that channel and time is",
-                   at);
-            ++entries;
-          }
-          if (entries != messages.size())
-            fail("Message Index of channel " + std::to_string(channel) + " lists " +
-                     std::to_string(entries) + " messages, its chunk holds " +
-                     std::to_string(messages.size()),
-                 at);
-          McapChunkIndex& chunk = check->chunks.back();
-          chunk.message_index_offsets[channel] = at;
-          chunk.message_index_length += fmt::kRecordHeaderSize + length;
-          check->after_chunk = true;
-          ++check->result.message_indexes;
-          break;
-        }
-        case fmt::kAttachment:
-          if (check != nullptr) ++check->counted.attachment_count;
-          break;
-        case fmt::kMetadata:
-          if (check != nullptr) ++check->counted.metadata_count;
-          break;
-        default:
-          if (opcode < 0x10) fail(std::string("a ") + name + " record in the data section", at);
-          break;  // a future or private record: skipped
-      }
+      if (!dispatch(opcode, in, at, length, was_after_chunk)) return;
     } catch (const fmt::ShortRecord& e) {
-      fail(std::string(name) + " record: " + e.what(), at);
+      r_.fail(std::string(name) + " record: " + e.what(), at);
     }
     at += fmt::kRecordHeaderSize + length;
   }
+}
+
+bool McapReader::DataPass::dispatch(std::uint8_t opcode, fmt::In& content, std::uint64_t at,
+                                    std::uint64_t length, bool was_after_chunk) {
+  if (on_definition(opcode, content, at)) return true;
+  switch (opcode) {
+    case fmt::kMessage:
+      return on_message(content, at);
+    case fmt::kChunk:
+      return on_chunk(content, at, length);
+    case fmt::kMessageIndex:
+      if (check_ != nullptr) on_message_index(content, at, length, was_after_chunk);
+      return true;
+    case fmt::kAttachment:
+      if (check_ != nullptr) ++check_->counted.attachment_count;
+      return true;
+    case fmt::kMetadata:
+      if (check_ != nullptr) ++check_->counted.metadata_count;
+      return true;
+    default:
+      if (opcode < 0x10)
+        r_.fail(std::string("a ") + fmt::opcode_name(opcode) + " record in the data section", at);
+      return true;  // a future or private record: skipped
+  }
+}
+
+void McapReader::DataPass::on_data_end(fmt::In& content, std::uint64_t at, std::uint64_t length) {
+  std::uint32_t recorded = 0;
+  try {
+    recorded = content.u32();
+  } catch (const fmt::ShortRecord& e) {
+    r_.fail(std::string("Data End: ") + e.what(), at);
+  }
+  if (recorded != 0) {
+    if (recorded != crc_)
+      r_.fail("data section CRC mismatch (Data End says " + hex32(recorded) + ", the bytes give " +
+                  hex32(crc_) + "): the data section is corrupt",
+              at);
+    if (check_ != nullptr) check_->result.data_crc_checked = true;
+  }
+  const std::uint64_t end = at + fmt::kRecordHeaderSize + length;
+  if (r_.summary_start_ != 0 && end != r_.summary_start_)
+    r_.fail("the data section ends at byte " + std::to_string(end) +
+                " but the Footer starts the summary at byte " + std::to_string(r_.summary_start_),
+            at);
+}
+
+bool McapReader::DataPass::on_definition(std::uint8_t opcode, fmt::In& content, std::uint64_t at) {
+  if (opcode == fmt::kSchema) {
+    on_schema(parse_schema(content), at);
+  } else if (opcode == fmt::kChannel) {
+    on_channel(parse_channel(content), at);
+  } else {
+    return false;
+  }
+  return true;
+}
+
+void McapReader::DataPass::on_schema(McapSchema s, std::uint64_t at) {
+  if (s.id == 0) return;  // invalid by the specification: ignored
+  const auto it = r_.schemas_.find(s.id);
+  if (it != r_.schemas_.end() && !same(it->second, s))
+    r_.fail("Schema " + std::to_string(s.id) + " recorded twice with different contents", at);
+  if (check_ != nullptr) check_->schema_ids.insert(s.id);
+  r_.schemas_[s.id] = std::move(s);
+}
+
+void McapReader::DataPass::on_channel(McapChannel c, std::uint64_t at) {
+  if (c.schema_id != 0 && r_.schemas_.count(c.schema_id) == 0)
+    r_.fail("Channel " + std::to_string(c.id) + " ('" + c.topic + "') refers to schema " +
+                std::to_string(c.schema_id) + " before any Schema record defines it",
+            at);
+  const auto it = r_.channels_.find(c.id);
+  if (it != r_.channels_.end() && !same(it->second, c))
+    r_.fail("Channel " + std::to_string(c.id) + " recorded twice with different contents", at);
+  if (check_ != nullptr) check_->channel_ids.insert(c.id);
+  r_.channels_[c.id] = std::move(c);
+}
+
+bool McapReader::DataPass::on_message(fmt::In& content, std::uint64_t at) {
+  McapMessageView m;
+  m.channel_id = content.u16();
+  m.sequence = content.u32();
+  m.log_time = content.u64();
+  m.publish_time = content.u64();
+  m.size = content.remaining();
+  m.data = content.bytes(m.size, "message data");
+  if (r_.channels_.count(m.channel_id) == 0)
+    r_.fail("Message on channel " + std::to_string(m.channel_id) +
+                " before any Channel record defines it",
+            at);
+  if (check_ != nullptr) {
+    McapStatistics& s = check_->counted;
+    if (s.message_count == 0) s.message_start_time = s.message_end_time = m.log_time;
+    ++s.message_count;
+    s.message_start_time = std::min(s.message_start_time, m.log_time);
+    s.message_end_time = std::max(s.message_end_time, m.log_time);
+    ++s.channel_message_counts[m.channel_id];
+  }
+  return on_message_ ? on_message_(m) : true;
+}
+
+bool McapReader::DataPass::on_chunk(fmt::In& content, std::uint64_t at, std::uint64_t length) {
+  McapChunkIndex found;
+  found.chunk_start_offset = at;
+  found.chunk_length = fmt::kRecordHeaderSize + length;
+  found.message_start_time = content.u64();
+  found.message_end_time = content.u64();
+  found.uncompressed_size = content.u64();
+  const std::uint32_t uncompressed_crc = content.u32();
+  found.compression = content.string("compression");
+  const std::uint64_t records_size = content.u64();
+  if (records_size != content.remaining())
+    r_.fail("Chunk records field says " + std::to_string(records_size) +
+                " bytes, the record holds " + std::to_string(content.remaining()),
+            at);
+  found.compressed_size = records_size;
+  const std::uint8_t* stored = content.bytes(records_size, "chunk records");
+  const std::uint8_t* plain = chunk_records(found, stored, at);
+  if (uncompressed_crc != 0) {
+    const std::uint32_t actual = fmt::crc32(0, plain, found.uncompressed_size);
+    if (actual != uncompressed_crc)
+      r_.fail("Chunk CRC mismatch (the chunk says " + hex32(uncompressed_crc) +
+                  ", its records give " + hex32(actual) + "): the chunk is corrupt",
+              at);
+  }
+  if (check_ != nullptr) {
+    check_->chunk_messages.clear();
+    check_->after_chunk = true;
+    ++check_->result.chunks;
+    ++check_->counted.chunk_count;
+  }
+  fmt::In inner(plain, found.uncompressed_size);
+  while (inner.remaining() > 0) {
+    const std::uint64_t inner_at = inner.position();
+    const std::uint8_t inner_opcode = inner.u8();
+    const std::uint64_t inner_length = inner.u64();
+    if (inner_length > inner.remaining())
+      r_.fail("a " + std::string(fmt::opcode_name(inner_opcode)) +
+                  " record inside the chunk runs past its end (chunk byte " +
+                  std::to_string(inner_at) + ")",
+              at);
+    fmt::In record(inner.bytes(inner_length, "record"), inner_length);
+    if (!on_chunk_record(inner_opcode, record, found, inner_at, at)) return false;
+  }
+  if (check_ != nullptr) check_->chunks.push_back(std::move(found));
+  return true;
+}
+
+const std::uint8_t* McapReader::DataPass::chunk_records(const McapChunkIndex& chunk,
+                                                        const std::uint8_t* stored,
+                                                        std::uint64_t at) {
+  if (chunk.uncompressed_size > kMaxChunkBytes)
+    r_.fail("Chunk claims " + std::to_string(chunk.uncompressed_size) +
+                " uncompressed bytes: corrupt (more than 4 GiB)",
+            at);
+  if (chunk.compression.empty()) {
+    if (chunk.compressed_size != chunk.uncompressed_size)
+      r_.fail("uncompressed Chunk of " + std::to_string(chunk.compressed_size) + " bytes says " +
+                  std::to_string(chunk.uncompressed_size),
+              at);
+    return stored;
+  }
+  if (chunk.compression != "zstd")
+    r_.fail("Chunk compression '" + chunk.compression +
+                "' is not supported by this reader (zstd or none)",
+            at);
+  if (dctx_ == nullptr) dctx_ = ZSTD_createDCtx();
+  records_.resize(chunk.uncompressed_size);
+  const std::size_t n =
+      ZSTD_decompressDCtx(dctx_, records_.data(), records_.size(), stored, chunk.compressed_size);
+  if (ZSTD_isError(n))
+    r_.fail(std::string("Chunk: zstd cannot decompress its records: ") + ZSTD_getErrorName(n), at);
+  if (n != chunk.uncompressed_size)
+    r_.fail("Chunk: decompressed " + std::to_string(n) + " bytes, the chunk says " +
+                std::to_string(chunk.uncompressed_size),
+            at);
+  return records_.data();
+}
+
+bool McapReader::DataPass::on_chunk_record(std::uint8_t opcode, fmt::In& record,
+                                           const McapChunkIndex& chunk, std::uint64_t inner_at,
+                                           std::uint64_t at) {
+  if (on_definition(opcode, record, at)) return true;
+  switch (opcode) {
+    case fmt::kMessage: {
+      fmt::In peek = record;
+      const std::uint16_t channel = peek.u16();
+      peek.u32();
+      const std::uint64_t log_time = peek.u64();
+      if (log_time < chunk.message_start_time || log_time > chunk.message_end_time)
+        r_.fail("a message logged at " + std::to_string(log_time) +
+                    " lies outside its chunk's time range",
+                at);
+      if (check_ != nullptr) check_->chunk_messages[channel][inner_at] = log_time;
+      return on_message(record, at);
+    }
+    default:
+      r_.fail(std::string("a ") + fmt::opcode_name(opcode) +
+                  " record inside a chunk (chunks hold Schema, Channel and Message records)",
+              at);
+  }
+}
+
+void McapReader::DataPass::on_message_index(fmt::In& content, std::uint64_t at,
+                                            std::uint64_t length, bool was_after_chunk) {
+  if (!was_after_chunk) r_.fail("a Message Index that does not follow a Chunk", at);
+  const std::uint16_t channel = content.u16();
+  const std::uint32_t bytes = content.u32();
+  if (bytes % 16 != 0 || bytes != content.remaining())
+    r_.fail("Message Index entries of " + std::to_string(bytes) + " bytes", at);
+  auto& messages = check_->chunk_messages[channel];
+  std::size_t entries = 0;
+  while (content.remaining() > 0) {
+    const std::uint64_t log_time = content.u64();
+    const std::uint64_t offset = content.u64();
+    const auto it = messages.find(offset);
+    if (it == messages.end() || it->second != log_time)
+      r_.fail("Message Index of channel " + std::to_string(channel) + " points at chunk byte " +
+                  std::to_string(offset) + ", where no message of that channel and time is",
+              at);
+    ++entries;
+  }
+  if (entries != messages.size())
+    r_.fail("Message Index of channel " + std::to_string(channel) + " lists " +
+                std::to_string(entries) + " messages, its chunk holds " +
+                std::to_string(messages.size()),
+            at);
+  McapChunkIndex& chunk = check_->chunks.back();
+  chunk.message_index_offsets[channel] = at;
+  chunk.message_index_length += fmt::kRecordHeaderSize + length;
+  check_->after_chunk = true;
+  ++check_->result.message_indexes;
+}
+
+void McapReader::scan(const std::function<bool(const McapMessageView&)>& on_message, Scan* check) {
+  DataPass(*this, on_message, check).run();
 }
 
 McapValidation McapReader::validate() {

@@ -79,10 +79,8 @@ std::string return_code_name(const ReturnCode_t& code) {
 
 }  // namespace
 
-// ---------------------------------------------------------------------------------------------
-// Writer
-
-class WriterBase::Listener : public dds::DataWriterListener {
+// Both sides' DDS callbacks: matching and DEADLINE statuses into the endpoint's counters.
+class EndpointBase::Listener : public dds::DataWriterListener, public dds::DataReaderListener {
  public:
   Listener(std::shared_ptr<TopicCounters> counters, std::shared_ptr<MatchedCount> matched)
       : counters_(std::move(counters)), matched_(std::move(matched)) {}
@@ -91,9 +89,17 @@ class WriterBase::Listener : public dds::DataWriterListener {
                               const dds::PublicationMatchedStatus& status) override {
     matched_->set(static_cast<std::uint32_t>(status.current_count), *counters_);
   }
+  void on_subscription_matched(dds::DataReader*,
+                               const dds::SubscriptionMatchedStatus& status) override {
+    matched_->set(static_cast<std::uint32_t>(status.current_count), *counters_);
+  }
   void on_offered_deadline_missed(dds::DataWriter*,
                                   const dds::OfferedDeadlineMissedStatus& status) override {
     counters_->offered_deadline_missed = static_cast<std::uint32_t>(status.total_count);
+  }
+  void on_requested_deadline_missed(dds::DataReader*,
+                                    const dds::RequestedDeadlineMissedStatus& status) override {
+    counters_->requested_deadline_missed = static_cast<std::uint32_t>(status.total_count);
   }
 
  private:
@@ -101,19 +107,28 @@ class WriterBase::Listener : public dds::DataWriterListener {
   std::shared_ptr<MatchedCount> matched_;
 };
 
-WriterBase::WriterBase(Participant& participant, const std::string& topic,
-                       const dds::TypeSupport& type, const TopicQos& qos)
+EndpointBase::EndpointBase(Participant& participant, const std::string& topic,
+                           const dds::TypeSupport& type, const TopicQos& qos)
     : participant_(participant.state()),
       topic_(topic),
       qos_(qos),
       counters_(std::make_shared<TopicCounters>()),
       matched_(std::make_shared<MatchedCount>()),
-      listener_(std::make_unique<Listener>(counters_, matched_)),
-      type_(type) {
+      listener_(std::make_unique<Listener>(counters_, matched_)) {
   if (qos.kind == TopicKind::frame && !type->is_plain()) {
     throw std::invalid_argument("frame topic '" + topic + "': type " + type.get_type_name() +
                                 " is not plain, it cannot be delivered by data-sharing");
   }
+}
+
+EndpointBase::~EndpointBase() = default;  // here, where Listener is complete
+
+// ---------------------------------------------------------------------------------------------
+// Writer
+
+WriterBase::WriterBase(Participant& participant, const std::string& topic,
+                       const dds::TypeSupport& type, const TopicQos& qos)
+    : EndpointBase(participant, topic, type, qos), type_(type) {
   create();
 }
 
@@ -232,37 +247,9 @@ void WriterBase::write_raw(void* sample) {
 // ---------------------------------------------------------------------------------------------
 // Reader
 
-class ReaderBase::Listener : public dds::DataReaderListener {
- public:
-  Listener(std::shared_ptr<TopicCounters> counters, std::shared_ptr<MatchedCount> matched)
-      : counters_(std::move(counters)), matched_(std::move(matched)) {}
-
-  void on_subscription_matched(dds::DataReader*,
-                               const dds::SubscriptionMatchedStatus& status) override {
-    matched_->set(static_cast<std::uint32_t>(status.current_count), *counters_);
-  }
-  void on_requested_deadline_missed(dds::DataReader*,
-                                    const dds::RequestedDeadlineMissedStatus& status) override {
-    counters_->requested_deadline_missed = static_cast<std::uint32_t>(status.total_count);
-  }
-
- private:
-  std::shared_ptr<TopicCounters> counters_;
-  std::shared_ptr<MatchedCount> matched_;
-};
-
 ReaderBase::ReaderBase(Participant& participant, const std::string& topic,
                        const dds::TypeSupport& type, const TopicQos& qos)
-    : participant_(participant.state()),
-      topic_(topic),
-      qos_(qos),
-      counters_(std::make_shared<TopicCounters>()),
-      matched_(std::make_shared<MatchedCount>()),
-      listener_(std::make_unique<Listener>(counters_, matched_)) {
-  if (qos.kind == TopicKind::frame && !type->is_plain()) {
-    throw std::invalid_argument("frame topic '" + topic + "': type " + type.get_type_name() +
-                                " is not plain, it cannot be delivered by data-sharing");
-  }
+    : EndpointBase(participant, topic, type, qos) {
   dds::Topic* dds_topic = participant_->topic(topic, type);
   const dds::StatusMask mask = dds::StatusMask::subscription_matched()
                                << dds::StatusMask::requested_deadline_missed();

@@ -100,6 +100,16 @@ void check_images(const std::array<cv::Mat, kRingCameras>& images, const RingGeo
   }
 }
 
+// Maps `bytes` of the ring file open on `fd` (shared, with `protection`) and closes `fd`, which
+// the mapping does not need. RingError naming `path` when the mapping fails.
+std::uint8_t* map_and_close(int fd, std::size_t bytes, int protection, const std::string& path) {
+  void* data = ::mmap(nullptr, bytes, protection, MAP_SHARED, fd, 0);
+  const std::string why = errno_text();
+  ::close(fd);
+  if (data == MAP_FAILED) throw RingError("cannot map ring " + path + ": " + why);
+  return static_cast<std::uint8_t*>(data);
+}
+
 }  // namespace
 
 const char* to_string(RingPixelFormat format) {
@@ -173,12 +183,8 @@ RingMapping RingMapping::create(const std::string& path, std::size_t bytes) {
     ::close(fd);
     throw RingError("cannot size ring " + path + " to " + std::to_string(bytes) + " bytes: " + why);
   }
-  void* data = ::mmap(nullptr, bytes, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
-  const std::string why = errno_text();
-  ::close(fd);
-  if (data == MAP_FAILED) throw RingError("cannot map ring " + path + ": " + why);
   RingMapping mapping;
-  mapping.data_ = static_cast<std::uint8_t*>(data);
+  mapping.data_ = map_and_close(fd, bytes, PROT_READ | PROT_WRITE, path);
   mapping.size_ = bytes;
   return mapping;
 }
@@ -202,12 +208,8 @@ RingMapping RingMapping::open_read(const std::string& path) {
     throw RingError("ring " + path + " is " + std::to_string(bytes) + " bytes, too small for the " +
                     std::to_string(kRingHeaderBytes) + "-byte ring header");
   }
-  void* data = ::mmap(nullptr, bytes, PROT_READ, MAP_SHARED, fd, 0);
-  const std::string why = errno_text();
-  ::close(fd);
-  if (data == MAP_FAILED) throw RingError("cannot map ring " + path + ": " + why);
   RingMapping mapping;
-  mapping.data_ = static_cast<std::uint8_t*>(data);
+  mapping.data_ = map_and_close(fd, bytes, PROT_READ, path);
   mapping.size_ = bytes;
   mapping.device_ = info.st_dev;
   mapping.inode_ = info.st_ino;

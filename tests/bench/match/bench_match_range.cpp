@@ -49,6 +49,18 @@ Pair make_pair(double distance_m, const cv::Rect& box) {
   return p;
 }
 
+// The benchmark's rectified pair: kWidth x kHeight pixels, focal length kF px, principal point
+// at the centre, right eye kBaseline m along x.
+rg::RangingGeometry bench_geometry() {
+  thermovis::camera::RectifiedIntrinsics g;
+  g.width = kWidth;
+  g.height = kHeight;
+  g.f = kF;
+  g.cx = (kWidth - 1) / 2.0;
+  g.cy = (kHeight - 1) / 2.0;
+  return {thermovis::camera::RectifiedCamera(g), kBaseline, Eigen::Isometry3d::Identity()};
+}
+
 void BM_MatchAndRange(benchmark::State& state) {
   const double distance = static_cast<double>(state.range(0));
   // Person 1.75 x 0.5 m at that distance, left of centre.
@@ -59,14 +71,7 @@ void BM_MatchAndRange(benchmark::State& state) {
   mt::MatchOptions mo;
   mo.method = static_cast<mt::Method>(state.range(1));
   mo.max_disparity_px = kF * kBaseline / 2.5;
-  thermovis::camera::RectifiedIntrinsics g;
-  g.width = kWidth;
-  g.height = kHeight;
-  g.f = kF;
-  g.cx = (kWidth - 1) / 2.0;
-  g.cy = (kHeight - 1) / 2.0;
-  const rg::RangingGeometry geometry{thermovis::camera::RectifiedCamera(g), kBaseline,
-                                     Eigen::Isometry3d::Identity()};
+  const rg::RangingGeometry geometry = bench_geometry();
   size_t points = 0;
   double distance_m = 0;
   for (auto _ : state) {
@@ -83,14 +88,7 @@ void BM_MatchAndRange(benchmark::State& state) {
 }
 
 void BM_RangeOnly(benchmark::State& state) {
-  thermovis::camera::RectifiedIntrinsics g;
-  g.width = kWidth;
-  g.height = kHeight;
-  g.f = kF;
-  g.cx = (kWidth - 1) / 2.0;
-  g.cy = (kHeight - 1) / 2.0;
-  const rg::RangingGeometry geometry{thermovis::camera::RectifiedCamera(g), kBaseline,
-                                     Eigen::Isometry3d::Identity()};
+  const rg::RangingGeometry geometry = bench_geometry();
   std::vector<mt::Correspondence> matches(static_cast<size_t>(state.range(0)));
   cv::RNG rng(3);
   for (auto& c : matches) {

@@ -20,6 +20,7 @@
 #include <thread>
 #include <vector>
 
+#include "thermovis/metrics/percentile.hpp"
 #include "thermovis/test/child_process.hpp"
 #include "thermovis/transport/clock.hpp"
 #include "thermovis/transport/participant.hpp"
@@ -81,13 +82,6 @@ int publish(int domain, Path path, int count) {
   return 0;
 }
 
-double percentile(std::vector<double> values, double p) {
-  if (values.empty()) return 0.0;
-  std::sort(values.begin(), values.end());
-  const auto index = static_cast<std::size_t>(p * static_cast<double>(values.size() - 1) + 0.5);
-  return values[std::min(index, values.size() - 1)];
-}
-
 // Receives frames for the benchmark iterations on `domain`; reader and participant are gone
 // when it returns.
 template <class Frame>
@@ -126,9 +120,9 @@ void measure(benchmark::State& state, int domain, Path path) {
     latencies_ms.push_back(pending.front() * 1e3);
     pending.pop_front();
   }
-  state.counters["p50_ms"] = percentile(latencies_ms, 0.50);
-  state.counters["p99_ms"] = percentile(latencies_ms, 0.99);
-  state.counters["max_ms"] = percentile(latencies_ms, 1.0);
+  state.counters["p50_ms"] = thermovis::metrics::percentile(latencies_ms, 50);
+  state.counters["p99_ms"] = thermovis::metrics::percentile(latencies_ms, 99);
+  state.counters["max_ms"] = thermovis::metrics::percentile(latencies_ms, 100);
   state.counters["lost"] = static_cast<double>(lost);
   state.counters["MB"] = static_cast<double>(sizeof(Frame)) / 1e6;
   state.SetBytesProcessed(static_cast<std::int64_t>(state.iterations()) *

@@ -17,6 +17,7 @@
 #include "thermovis/fpga/ring.hpp"
 #include "thermovis/runtime/rig_io.hpp"
 #include "thermovis/test/data.hpp"
+#include "thermovis/test/images.hpp"
 
 namespace {
 
@@ -64,29 +65,18 @@ FrameSet allocate(const FrameSource& source) {
 
 // Seeded test images of one frame, different in every camera and frame.
 FrameSet test_frame(int frame) {
-  cv::RNG rng(static_cast<std::uint64_t>(77 + frame));
   FrameSet frames;
-  for (int i = 0; i < 4; ++i) {
-    cv::Mat& image = frames.images[static_cast<std::size_t>(i)];
-    if (i < 2) {
-      image.create(kVisible, CV_8UC3);
-      rng.fill(image, cv::RNG::UNIFORM, 0, 256);
-    } else {
-      image.create(kInfrared, CV_16UC1);
-      rng.fill(image, cv::RNG::UNIFORM, 0, 16384);
-    }
-  }
+  frames.images =
+      thermovis::test::seeded_capture(static_cast<std::uint64_t>(77 + frame), kVisible, kInfrared);
   return frames;
 }
 
-bool equal(const cv::Mat& a, const cv::Mat& b) {
-  return a.size() == b.size() && a.type() == b.type() && cv::norm(a, b, cv::NORM_INF) == 0.0;
-}
+using thermovis::test::identical;
 
 void expect_equal(const FrameSet& got, const FrameSet& want) {
   for (int i = 0; i < 4; ++i) {
-    EXPECT_TRUE(
-        equal(got.images[static_cast<std::size_t>(i)], want.images[static_cast<std::size_t>(i)]))
+    EXPECT_TRUE(identical(got.images[static_cast<std::size_t>(i)],
+                          want.images[static_cast<std::size_t>(i)]))
         << to_string(static_cast<Slot>(i));
   }
 }
@@ -311,7 +301,8 @@ TEST_F(Sources, SimPrerenderCyclesThroughTheLiveCaptures) {
   }
   ASSERT_TRUE(cached->fill(1, a));
   ASSERT_TRUE(cached->fill(2, b));
-  EXPECT_FALSE(equal(a[Slot::infrared_left], b[Slot::infrared_left]));  // noise differs per frame
+  EXPECT_FALSE(
+      identical(a[Slot::infrared_left], b[Slot::infrared_left]));  // noise differs per frame
   options.prerender = -1;
   EXPECT_NE(error_of([&] { make_source(options, rig_); }).find("--prerender"), std::string::npos);
 }

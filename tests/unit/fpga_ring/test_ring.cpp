@@ -12,6 +12,7 @@
 
 #include "thermovis/fpga/ring.hpp"
 #include "thermovis/test/data.hpp"
+#include "thermovis/test/images.hpp"
 
 namespace {
 
@@ -28,28 +29,14 @@ const cv::Size kInfrared{20, 12};
 
 // Seeded captures that differ in every image and every capture.
 std::array<cv::Mat, 4> make_images(int capture) {
-  cv::RNG rng(static_cast<std::uint64_t>(1000 + capture));
-  std::array<cv::Mat, 4> images;
-  for (int i = 0; i < 4; ++i) {
-    auto& image = images[static_cast<std::size_t>(i)];
-    if (i < 2) {
-      image.create(kVisible, CV_8UC3);
-      rng.fill(image, cv::RNG::UNIFORM, 0, 256);
-    } else {
-      image.create(kInfrared, CV_16UC1);
-      rng.fill(image, cv::RNG::UNIFORM, 0, 16384);
-    }
-  }
-  return images;
-}
-
-bool equal(const cv::Mat& a, const cv::Mat& b) {
-  return a.size() == b.size() && a.type() == b.type() && cv::norm(a, b, cv::NORM_INF) == 0.0;
+  return thermovis::test::seeded_capture(static_cast<std::uint64_t>(1000 + capture), kVisible,
+                                         kInfrared);
 }
 
 void expect_capture(const RingCapture& got, int capture) {
   const auto want = make_images(capture);
-  for (std::size_t i = 0; i < 4; ++i) EXPECT_TRUE(equal(got.images[i], want[i])) << "image " << i;
+  for (std::size_t i = 0; i < 4; ++i)
+    EXPECT_TRUE(thermovis::test::identical(got.images[i], want[i])) << "image " << i;
   EXPECT_EQ(got.frame_seq, static_cast<std::uint64_t>(500 + capture));
   EXPECT_EQ(got.capture_time_ns, 1'700'000'000'000'000'000LL + capture * 20'000'000LL);
 }

@@ -13,25 +13,15 @@
 #include "thermovis/metrics/vifb_metrics.hpp"
 #include "thermovis/metrics/vifb_tables.hpp"
 #include "thermovis/test/data.hpp"
+#include "thermovis/test/vifb.hpp"
 
 namespace {
 
 namespace vm = thermovis::metrics;
 namespace fu = thermovis::fuse;
 
-cv::Mat read(const std::filesystem::path& p) {
-  cv::Mat m = cv::imread(p.string(), cv::IMREAD_UNCHANGED);
-  if (m.empty()) ADD_FAILURE() << "cannot read " << p;
-  return m;
-}
-
-std::vector<std::string> vifb_names(const std::filesystem::path& dir) {
-  std::vector<std::string> names;
-  for (const auto& e : std::filesystem::directory_iterator(dir / "VI"))
-    names.push_back(e.path().stem().string());
-  std::sort(names.begin(), names.end());
-  return names;
-}
+using thermovis::test::read_image;
+using thermovis::test::vifb_names;
 
 double psnr_u8(const cv::Mat& a, const cv::Mat& b) {
   const double mse = cv::norm(a, b, cv::NORM_L2SQR) / static_cast<double>(a.total() * a.channels());
@@ -50,9 +40,9 @@ TEST(Vsmwls, MatchesGoldenOutputsAndVifbAveragesOnAllPairs) {
   std::size_t off_values = 0, total_values = 0;
   vm::MetricValues sum;
   for (const auto& name : names) {
-    const cv::Mat ir = read(dir / "IR" / (name + ".jpg"));
-    const cv::Mat vis = read(dir / "VI" / (name + ".jpg"));
-    const cv::Mat golden = read(dir / "generated_uint8_VSMWLS" / (name + "_VSMWLS.png"));
+    const cv::Mat ir = read_image(dir / "IR" / (name + ".jpg"));
+    const cv::Mat vis = read_image(dir / "VI" / (name + ".jpg"));
+    const cv::Mat golden = read_image(dir / "generated_uint8_VSMWLS" / (name + "_VSMWLS.png"));
     const cv::Mat ours = fu::fuse(ir, vis);
     ASSERT_EQ(ours.size(), golden.size()) << name;
     ASSERT_EQ(ours.type(), golden.type()) << name;

@@ -11,25 +11,15 @@
 #include "thermovis/metrics/vifb_metrics.hpp"
 #include "thermovis/metrics/vifb_tables.hpp"
 #include "thermovis/test/data.hpp"
+#include "thermovis/test/vifb.hpp"
 
 namespace {
 
 using thermovis::metrics::Metric;
 namespace vm = thermovis::metrics;
 
-cv::Mat read(const std::filesystem::path& p) {
-  cv::Mat m = cv::imread(p.string(), cv::IMREAD_UNCHANGED);
-  EXPECT_FALSE(m.empty()) << p;
-  return m;
-}
-
-std::vector<std::string> vifb_names(const std::filesystem::path& dir) {
-  std::vector<std::string> names;
-  for (const auto& e : std::filesystem::directory_iterator(dir / "VI"))
-    names.push_back(e.path().stem().string());
-  std::sort(names.begin(), names.end());
-  return names;
-}
+using thermovis::test::read_image;
+using thermovis::test::vifb_names;
 
 // Per image, each metric of VIFB's published VSMWLS JPEG against the published value, and the
 // means, on every third pair (7 of 21, for run time; the fusion test scores all 21 pairs, whose
@@ -47,9 +37,9 @@ TEST(VifbMetrics, PublishedVsmwlsImagesGivePublishedValues) {
   std::array<double, vm::kMetricCount> worst{};
   vm::MetricValues sum_ours, sum_theirs;
   for (const auto& name : subset) {
-    const cv::Mat vis = read(dir / "VI" / (name + ".jpg"));
-    const cv::Mat ir = read(dir / "IR" / (name + ".jpg"));
-    const cv::Mat fused = read(dir / "reference_fused_VSMWLS" / (name + "_VSMWLS.jpg"));
+    const cv::Mat vis = read_image(dir / "VI" / (name + ".jpg"));
+    const cv::Mat ir = read_image(dir / "IR" / (name + ".jpg"));
+    const cv::Mat fused = read_image(dir / "reference_fused_VSMWLS" / (name + "_VSMWLS.jpg"));
     const auto ours = vm::vifb_metrics(vis, ir, fused);
     const auto& theirs = published.at({name, "VSMWLS"});
     for (Metric m : vm::all_metrics()) {

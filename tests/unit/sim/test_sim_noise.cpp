@@ -10,6 +10,7 @@
 #include <cmath>
 #include <opencv2/core.hpp>
 
+#include "rendered.hpp"
 #include "thermovis/runtime/rig_io.hpp"
 #include "thermovis/runtime/scene_io.hpp"
 #include "thermovis/sim/simulated_rig.hpp"
@@ -48,26 +49,20 @@ const Renders& renders() {
     const auto rig =
         thermovis::runtime::load_rig(thermovis::test::source_root() / "deploy/rigs/paper.yaml");
     const SimulatedRig a(rig, out.scene, 7);
-    out.noisy3 = a.allocate();
-    out.noisy4 = a.allocate();
-    a.render(3, out.noisy3);
-    a.render(4, out.noisy4);
+    out.noisy3 = rendered(a, 3);
+    out.noisy4 = rendered(a, 4);
     RenderOptions fixed_only;
     fixed_only.temporal_noise = false;
     const SimulatedRig f(rig, out.scene, 7, fixed_only);
-    out.fixed = f.allocate();
-    out.fixed4 = f.allocate();
-    f.render(3, out.fixed);
-    f.render(4, out.fixed4);
+    out.fixed = rendered(f, 3);
+    out.fixed4 = rendered(f, 4);
     RenderOptions none;
     none.temporal_noise = false;
     none.fixed_pattern = false;
     const SimulatedRig c(rig, out.scene, 7, none);
-    out.clean = c.allocate();
-    c.render(3, out.clean);
+    out.clean = rendered(c, 3);
     const SimulatedRig b(rig, out.scene, 8);
-    out.other_seed = b.allocate();
-    b.render(3, out.other_seed);
+    out.other_seed = rendered(b, 3);
     return out;
   }();
   return r;

@@ -8,6 +8,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "rendered.hpp"
 #include "thermovis/rectify/stereo_geometry.hpp"
 #include "thermovis/runtime/rig_io.hpp"
 #include "thermovis/runtime/scene_io.hpp"
@@ -220,11 +221,10 @@ TEST(SimulatedRig, SameSeedSameBytesInAnyFrameOrder) {
   const auto scene = shipped("street");
   const SimulatedRig a(paper_rig(), scene, 7);
   const SimulatedRig b(paper_rig(), scene, 7);
-  FrameSet fa = a.allocate(), fb = b.allocate(), again = a.allocate();
-  a.render(40, fa);
-  b.render(41, fb);
-  b.render(40, fb);
-  a.render(40, again);
+  const FrameSet fa = rendered(a, 40);
+  FrameSet fb = rendered(b, 41);
+  b.render(40, fb);  // over another frame: nothing of frame 41 may remain
+  const FrameSet again = rendered(a, 40);
   EXPECT_GT(a.dynamic_pixel_count(40), 0);  // moving targets were drawn
   for (int i = 0; i < thermovis::sim::kSlotCount; ++i) {
     SCOPED_TRACE(to_string(static_cast<Slot>(i)));
@@ -237,10 +237,7 @@ TEST(SimulatedRig, DifferentSeedsOrFramesGiveDifferentNoiseOfTheStatedSize) {
   const auto scene = shipped("street");
   const SimulatedRig a(paper_rig(), scene, 7);
   const SimulatedRig c(paper_rig(), scene, 8);
-  FrameSet f0 = a.allocate(), f1 = a.allocate(), other = c.allocate();
-  a.render(10, f0);
-  a.render(11, f1);
-  c.render(10, other);
+  const FrameSet f0 = rendered(a, 10), f1 = rendered(a, 11), other = rendered(c, 10);
   for (int i = 0; i < thermovis::sim::kSlotCount; ++i) {
     SCOPED_TRACE(to_string(static_cast<Slot>(i)));
     EXPECT_GT(cv::norm(f0.images[i], other.images[i], cv::NORM_L1), 0.0);

@@ -9,7 +9,7 @@
 
 #include "thermovis/frames.h"
 #include "thermovis/perception.h"
-#include "thermovis/pipeline/geometry.hpp"
+#include "thermovis/pipeline/bands.hpp"
 
 namespace thermovis::node {
 

@@ -16,6 +16,12 @@
 
 namespace thermovis::node {
 
+// "starting", "ok", "degraded", "failed" or "stopping" ("unknown" for a value out of the enum).
+const char* health_state_name(HealthState state);
+// DDS deadlines missed on every topic of `health`, reader side (requested) and writer side
+// (offered) together.
+std::uint64_t deadline_misses(const Health& health);
+
 // Writes "SERVICE: bad input #COUNT: MESSAGE" to stderr for the first bad inputs one by one,
 // then every 100th (a flood of bad input is thinned). `count` counts this one.
 void log_bad_input(const std::string& service, std::uint64_t count, const std::string& message);

@@ -42,7 +42,36 @@ std::unique_ptr<transport::Participant> make_participant(const CommonOptions& op
 // (0 otherwise).
 int run_service(const CommonOptions& options, const std::function<void()>& body);
 
+// run_service for a node built as Node(participant, config, options.service): makes the DDS
+// participant and the node, runs the node until a stop is requested and hands its stats() to
+// `report` (the exit summary line).
+template <typename Node, typename Config, typename Report>
+int run_node(const CommonOptions& options, const Config& config, Report report) {
+  return run_service(options, [&] {
+    auto participant = make_participant(options);
+    Node node(*participant, config, options.service);
+    node.run();
+    report(node.stats());
+  });
+}
+
 // A DEADLINE period given in milliseconds on a command line.
 std::chrono::nanoseconds deadline_from_ms(double milliseconds);
+
+// A service's command line: a CLI app described as "<service>: <description>", with the options
+// every service takes (add_common_options) already added to `common`.
+class ServiceApp : public CLI::App {
+ public:
+  ServiceApp(const std::string& service, const std::string& description, bool with_rig = true);
+  // Adds --deadline-ms (default 20 ms, the 50 Hz frame period), described by `help`; deadline()
+  // gives it after parsing.
+  void add_deadline_option(const std::string& help);
+  std::chrono::nanoseconds deadline() const { return deadline_from_ms(deadline_ms_); }
+
+  CommonOptions common;
+
+ private:
+  double deadline_ms_ = 20.0;
+};
 
 }  // namespace thermovis::node

@@ -22,14 +22,11 @@
 
 #include "thermovis/camera/rectified.hpp"
 #include "thermovis/camera/rig.hpp"
+#include "thermovis/pipeline/bands.hpp"
 #include "thermovis/range/ranging.hpp"
 
 namespace thermovis::pipeline {
 
-enum class Eye { left, right };
-// The pair a measurement comes from. fused: the fused images (infrared registered at one
-// distance blended into the visible), or a range combined from both pairs.
-enum class Band { visible, infrared, fused };
 std::string band_name(Band band);
 
 struct GridOptions {

@@ -199,6 +199,7 @@ class McapReader {
 
  private:
   struct Scan;
+  class DataPass;  // one pass over the data section, a handler per record type
   void scan(const std::function<bool(const McapMessageView&)>& on_message, Scan* check);
   void read_at(std::uint64_t offset, void* into, std::size_t size) const;
   [[noreturn]] void fail(const std::string& what, std::uint64_t offset) const;

@@ -45,19 +45,42 @@ inline constexpr std::chrono::milliseconds kFrameDrain{500};
 // the run. See WriterBase::loan_raw.
 inline constexpr std::chrono::milliseconds kStalledPoolRecovery{1000};
 
-class WriterBase {
+// What writers and readers share: the topic and its QoS, the participant that keeps the DDS
+// entities alive, the counters their listener feeds and the matched count.
+class EndpointBase {
+ public:
+  EndpointBase(const EndpointBase&) = delete;
+  EndpointBase& operator=(const EndpointBase&) = delete;
+
+  TopicCountersSnapshot counters() const { return counters_->snapshot(topic_); }
+  const std::string& topic_name() const { return topic_; }
+  const TopicQos& qos() const { return qos_; }
+
+ protected:
+  // Throws std::invalid_argument for a frame topic whose type is not plain (data-sharing
+  // delivers plain types only).
+  EndpointBase(Participant& participant, const std::string& topic,
+               const eprosima::fastdds::dds::TypeSupport& type, const TopicQos& qos);
+  ~EndpointBase();
+
+  std::shared_ptr<Participant::State> participant_;
+  std::string topic_;
+  TopicQos qos_;
+  std::shared_ptr<TopicCounters> counters_;
+  std::shared_ptr<MatchedCount> matched_;
+  // Attached to the DDS writer or reader; outlives it (the derived class deletes that first).
+  class Listener;
+  std::unique_ptr<Listener> listener_;
+};
+
+class WriterBase : public EndpointBase {
  public:
   WriterBase(Participant& participant, const std::string& topic,
              const eprosima::fastdds::dds::TypeSupport& type, const TopicQos& qos);
   virtual ~WriterBase();
-  WriterBase(const WriterBase&) = delete;
-  WriterBase& operator=(const WriterBase&) = delete;
 
   // Waits until `count` readers are matched (discovery done). False on timeout.
   bool wait_for_readers(std::uint32_t count, std::chrono::milliseconds timeout);
-  TopicCountersSnapshot counters() const { return counters_->snapshot(topic_); }
-  const std::string& topic_name() const { return topic_; }
-  const TopicQos& qos() const { return qos_; }
   eprosima::fastdds::dds::DataWriter& native() { return *writer_; }
   // Deletes the DDS writer and creates it anew (a new GUID, a new pool; readers match it again).
   // Throws std::runtime_error when the old writer cannot be deleted (this process still holds
@@ -75,13 +98,6 @@ class WriterBase {
   void write_raw(void* sample);
 
  private:
-  class Listener;
-  std::shared_ptr<Participant::State> participant_;
-  std::string topic_;
-  TopicQos qos_;
-  std::shared_ptr<TopicCounters> counters_;
-  std::shared_ptr<MatchedCount> matched_;
-  std::unique_ptr<Listener> listener_;
   eprosima::fastdds::dds::TypeSupport type_;
   eprosima::fastdds::dds::DataWriter* writer_ = nullptr;
   std::int64_t pool_exhausted_since_ns_ = 0;  // first refused loan of the current run; 0: none
@@ -95,21 +111,16 @@ class WriterBase {
   bool delete_writer() noexcept;
 };
 
-class ReaderBase {
+class ReaderBase : public EndpointBase {
  public:
   ReaderBase(Participant& participant, const std::string& topic,
              const eprosima::fastdds::dds::TypeSupport& type, const TopicQos& qos);
   virtual ~ReaderBase();
-  ReaderBase(const ReaderBase&) = delete;
-  ReaderBase& operator=(const ReaderBase&) = delete;
 
   // Waits until `count` writers are matched. False on timeout.
   bool wait_for_writers(std::uint32_t count, std::chrono::milliseconds timeout);
   // Waits until an unread sample is available. False on timeout.
   bool wait_for_data(std::chrono::nanoseconds timeout);
-  TopicCountersSnapshot counters() const { return counters_->snapshot(topic_); }
-  const std::string& topic_name() const { return topic_; }
-  const TopicQos& qos() const { return qos_; }
   eprosima::fastdds::dds::DataReader& native() { return *reader_; }
 
  protected:
@@ -125,13 +136,6 @@ class ReaderBase {
   bool still_valid_raw(const void* sample, const eprosima::fastdds::dds::SampleInfo& info);
 
  private:
-  class Listener;
-  std::shared_ptr<Participant::State> participant_;
-  std::string topic_;
-  TopicQos qos_;
-  std::shared_ptr<TopicCounters> counters_;
-  std::shared_ptr<MatchedCount> matched_;
-  std::unique_ptr<Listener> listener_;
   eprosima::fastdds::dds::DataReader* reader_ = nullptr;
 };
 
