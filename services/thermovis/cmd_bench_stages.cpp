@@ -3,8 +3,6 @@
 // each stage per capture, beside a floor measured in the same run (one copy of every image of a
 // capture and cv::resize(INTER_AREA) of each to the grid), and the ranges matched to the
 // simulated truth per person (the figures `bench pipeline` gives for the separate processes).
-#include <time.h>
-
 #include <algorithm>
 #include <iomanip>
 #include <iostream>
@@ -14,6 +12,7 @@
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
+#include "capture_floor.hpp"
 #include "command.hpp"
 #include "thermovis/metrics/percentile.hpp"
 #include "thermovis/pipeline/capture_pipeline.hpp"
@@ -39,11 +38,7 @@ struct Options {
   pl::GridOptions grid;
 };
 
-double thread_cpu_ms() {
-  timespec t{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
-  return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) * 1e-6;
-}
+using thermovis::cli::thread_cpu_ms;
 
 // CPU time of one stage over the captures measured.
 struct StageTime {
@@ -148,12 +143,7 @@ int run_bench_stages(const Options& opt) {
       ++t.ranges;
     }
     // The floor: one copy of every image of the capture, and each resized to the grid.
-    const double f0 = thread_cpu_ms();
-    for (const cv::Mat& image : frames.images) {
-      cv::Mat copy = image.clone(), resized;
-      cv::resize(image, resized, grid, 0, 0, cv::INTER_AREA);
-    }
-    const double floor_ms = thread_cpu_ms() - f0;
+    const double floor_ms = thermovis::cli::capture_floor_cpu_ms(frames.images, grid, 1);
     if (!measured) continue;
     double sum = 0;
     for (const auto& name : stage_names) {
