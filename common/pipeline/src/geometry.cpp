@@ -166,20 +166,10 @@ cv::Rect points_box_on_grid(const PipelineGeometry& geometry, Band band,
   const PairGeometry& pair = band == Band::infrared ? geometry.infrared : geometry.visible;
   const Eigen::Isometry3d T_rect_reporting =
       pair.T_ref_left_rect.inverse() * geometry.T_ref_reporting;
-  const camera::RectifiedCamera grid(geometry.grid);
-  double lo_x = 1e30, lo_y = 1e30, hi_x = -1e30, hi_y = -1e30;
-  for (const Eigen::Vector3d& p : points_m) {
-    Eigen::Vector2d q;
-    if (!grid.project(T_rect_reporting * p, q)) continue;
-    lo_x = std::min(lo_x, q.x());
-    lo_y = std::min(lo_y, q.y());
-    hi_x = std::max(hi_x, q.x());
-    hi_y = std::max(hi_y, q.y());
-  }
-  if (lo_x > hi_x) return {};
-  const int x0 = static_cast<int>(std::floor(lo_x)), y0 = static_cast<int>(std::floor(lo_y));
-  return cv::Rect(x0, y0, static_cast<int>(std::ceil(hi_x)) - x0 + 1,
-                  static_cast<int>(std::ceil(hi_y)) - y0 + 1) &
+  std::vector<Eigen::Vector3d> points_rect;
+  points_rect.reserve(points_m.size());
+  for (const Eigen::Vector3d& p : points_m) points_rect.push_back(T_rect_reporting * p);
+  return rectify::rays_box_on_grid(camera::RectifiedCamera(geometry.grid), points_rect) &
          cv::Rect(0, 0, geometry.grid.width, geometry.grid.height);
 }
 

@@ -147,7 +147,7 @@ cv::Rect raw_box_on_grid(const camera::RigCamera& cam, const Eigen::Isometry3d& 
                          const camera::RectifiedCamera& grid, double x_min, double y_min,
                          double x_max, double y_max) {
   const Eigen::Matrix3d R_rect_cam = T_ref_rect.rotation().transpose() * cam.T_ref_cam.rotation();
-  double lo_x = 1e30, lo_y = 1e30, hi_x = -1e30, hi_y = -1e30;
+  std::vector<Eigen::Vector3d> rays;
   const int steps = 16;
   for (int i = 0; i <= steps; ++i) {
     const double t = static_cast<double>(i) / steps;
@@ -156,13 +156,22 @@ cv::Rect raw_box_on_grid(const camera::RigCamera& cam, const Eigen::Isometry3d& 
                                      Eigen::Vector2d(x_min, y_min + t * (y_max - y_min)),
                                      Eigen::Vector2d(x_max, y_min + t * (y_max - y_min))}) {
       Eigen::Vector3d ray;
-      Eigen::Vector2d q;
-      if (!cam.model->unproject(p, ray) || !grid.project(R_rect_cam * ray, q)) continue;
-      lo_x = std::min(lo_x, q.x());
-      lo_y = std::min(lo_y, q.y());
-      hi_x = std::max(hi_x, q.x());
-      hi_y = std::max(hi_y, q.y());
+      if (cam.model->unproject(p, ray)) rays.push_back(R_rect_cam * ray);
     }
+  }
+  return rays_box_on_grid(grid, rays);
+}
+
+cv::Rect rays_box_on_grid(const camera::RectifiedCamera& grid,
+                          const std::vector<Eigen::Vector3d>& rays) {
+  double lo_x = 1e30, lo_y = 1e30, hi_x = -1e30, hi_y = -1e30;
+  for (const Eigen::Vector3d& ray : rays) {
+    Eigen::Vector2d q;
+    if (!grid.project(ray, q)) continue;
+    lo_x = std::min(lo_x, q.x());
+    lo_y = std::min(lo_y, q.y());
+    hi_x = std::max(hi_x, q.x());
+    hi_y = std::max(hi_y, q.y());
   }
   if (lo_x > hi_x) return {};
   const int x0 = static_cast<int>(std::floor(lo_x)), y0 = static_cast<int>(std::floor(lo_y));

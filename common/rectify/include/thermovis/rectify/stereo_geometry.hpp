@@ -9,6 +9,7 @@
 // row.
 #include <Eigen/Geometry>
 #include <opencv2/core/mat.hpp>
+#include <vector>
 
 #include "thermovis/camera/rectified.hpp"
 #include "thermovis/camera/rig.hpp"
@@ -59,5 +60,10 @@ cv::Mat build_map(const camera::RigCamera& camera, const Eigen::Isometry3d& T_re
 cv::Rect raw_box_on_grid(const camera::RigCamera& camera, const Eigen::Isometry3d& T_ref_rect,
                          const camera::RectifiedCamera& grid, double x_min, double y_min,
                          double x_max, double y_max);
+
+// The pixel box on `grid` holding the projections of rays (or points) of the grid's rectified
+// frame; those outside the grid's domain are left out. Empty when none projects.
+cv::Rect rays_box_on_grid(const camera::RectifiedCamera& grid,
+                          const std::vector<Eigen::Vector3d>& rays);
 
 }  // namespace thermovis::rectify
