@@ -58,9 +58,8 @@ ViewNode::ViewNode(transport::Participant& participant, ViewHub& hub, const View
                    const std::string& service_name)
     : hub_(hub),
       config_(config),
+      participant_(participant),
       fused_in_(participant, transport::topics::kFused, frame_reader_qos()),
-      visible_in_(participant, transport::topics::kRectifiedVisible, frame_reader_qos()),
-      infrared_in_(participant, transport::topics::kRectifiedInfrared, frame_reader_qos()),
       detections_in_(participant, transport::topics::kDetections, transport::event_topic_qos()),
       ranges_in_(participant, transport::topics::kRanges, transport::event_topic_qos()),
       timing_in_(participant, transport::topics::kTiming, transport::event_topic_qos(64)),
@@ -94,18 +93,37 @@ void ViewNode::run() {
 void ViewNode::take_frames() {
   const bool side = hub_.wanted(View::side_by_side);
   struct Band {
-    transport::Reader<GridStereoFrame>& reader;
+    transport::Reader<GridStereoFrame>* reader;
     std::deque<Image>& ring;
-    bool wanted;
     bool fused;
   };
-  for (Band band : {Band{fused_in_, fused_, true, true},
-                    Band{visible_in_, visible_, side || hub_.wanted(View::visible), false},
-                    Band{infrared_in_, infrared_, side || hub_.wanted(View::infrared), false}}) {
-    auto samples = band.reader.take();
+  // A reader of a rectified topic exists only while some view shows that band. Matched, it is
+  // one more reader of pools rectify-fuse sizes for the pipeline's own, and a reader that dies
+  // (the viewer killed) can leave the writer's pool refusing every loan until the writer is
+  // recreated (Fast DDS 2.9 with several data-sharing readers): the rectified frames the
+  // pipeline ranges on would be lost for that time. The fused topic is the display's own.
+  const auto reader_for = [&](std::optional<transport::Reader<GridStereoFrame>>& reader,
+                              std::deque<Image>& ring, const char* topic, bool wanted) {
+    if (wanted && !reader) reader.emplace(participant_, topic, frame_reader_qos());
+    if (!wanted && reader) {
+      reader.reset();
+      ring.clear();
+    }
+    return reader ? &*reader : nullptr;
+  };
+  const bool visible_wanted = side || hub_.wanted(View::visible);
+  const bool infrared_wanted = side || hub_.wanted(View::infrared);
+  for (Band band : {Band{&fused_in_, fused_, true},
+                    Band{reader_for(visible_in_, visible_, transport::topics::kRectifiedVisible,
+                                    visible_wanted),
+                         visible_, false},
+                    Band{reader_for(infrared_in_, infrared_, transport::topics::kRectifiedInfrared,
+                                    infrared_wanted),
+                         infrared_, false}}) {
+    if (band.reader == nullptr) continue;
+    auto samples = band.reader->take();
     if (samples.empty()) continue;
     if (band.fused) stats_.fused_frames += samples.size();
-    if (!band.wanted) continue;  // taken only to keep the history empty; loans go back now
     try {
       if (copy_newest(samples, band.ring)) {
         ++stats_.copied;
@@ -113,7 +131,7 @@ void ViewNode::take_frames() {
         ++stats_.overwritten;
       }
     } catch (const std::exception& e) {
-      health_.bad_input(band.reader.topic_name() + ": " + e.what());
+      health_.bad_input(band.reader->topic_name() + ": " + e.what());
     }
   }
 }

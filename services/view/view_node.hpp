@@ -5,13 +5,15 @@
 //
 // It must never slow the pipeline: frame readers keep the last 2 samples and this loop takes
 // them all, copies only the newest left image of the bands some view needs (a fraction of a
-// millisecond) and gives the loans back at once; composing and encoding happen at most
+// millisecond) and gives the loans back at once. The rectified bands are read only while a view
+// needs them (see take_frames); composing and encoding happen at most
 // `max_fps` times a second, from the newest range result whose fused frame it holds (older ones
 // are skipped). HTTP clients never touch this loop.
 #include <chrono>
 #include <cstdint>
 #include <deque>
 #include <map>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -61,7 +63,10 @@ class ViewNode {
 
   ViewHub& hub_;
   ViewConfig config_;
-  transport::Reader<GridStereoFrame> fused_in_, visible_in_, infrared_in_;
+  transport::Participant& participant_;
+  transport::Reader<GridStereoFrame> fused_in_;
+  // Created while a view needs the band, deleted when none has for ViewHub::wanted's window.
+  std::optional<transport::Reader<GridStereoFrame>> visible_in_, infrared_in_;
   transport::Reader<DetectionArray> detections_in_;
   transport::Reader<RangeArray> ranges_in_;
   transport::Reader<FrameTiming> timing_in_;
