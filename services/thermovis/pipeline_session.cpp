@@ -123,13 +123,13 @@ std::optional<pipeline::PipelineGeometry> PipelineSession::geometry() {
   return geometry_->geometry();
 }
 
-std::optional<sim::TargetTruth> PipelineSession::truth_for(std::uint64_t seq,
-                                                           const TargetRange& range) {
-  const std::int64_t frame = options_.prerender > 0
-                                 ? static_cast<std::int64_t>(seq % options_.prerender)
-                                 : static_cast<std::int64_t>(seq);
-  return truth_on_line_of_sight(sim_->truth(frame),
-                                Eigen::Vector3d(range.x_m(), range.y_m(), range.z_m()));
+const std::vector<sim::TargetTruth>& PipelineSession::truth_at(std::uint64_t seq) {
+  const bool cycled = options_.prerender > 0;
+  const std::int64_t frame =
+      cycled ? static_cast<std::int64_t>(seq % options_.prerender) : static_cast<std::int64_t>(seq);
+  if (const auto it = truth_by_frame_.find(frame); it != truth_by_frame_.end()) return it->second;
+  if (!cycled) truth_by_frame_.clear();  // live rendering: frames do not come back
+  return truth_by_frame_.emplace(frame, sim_->truth(frame)).first->second;
 }
 
 void PipelineSession::kill_service(const std::string& name) {
@@ -167,12 +167,14 @@ std::vector<CheckedRange> PipelineSession::step() {
     }
     last_arrival_ = arrival;
     const double latency = transport::latency_ms(array.stamps(), array.capture_time_ns());
+    const std::vector<sim::TargetTruth>& truth = truth_at(array.frame_seq());
     for (const TargetRange& range : array.targets()) {
       CheckedRange c;
       c.seq = array.frame_seq();
       c.latency_ms = latency;
       c.range = range;
-      c.truth = truth_for(c.seq, range);
+      c.truth =
+          truth_on_line_of_sight(truth, Eigen::Vector3d(range.x_m(), range.y_m(), range.z_m()));
       if (c.truth) c.error_m = range.distance_m() - c.truth->distance_m;
       out.push_back(c);
       checked_.push_back(c);

@@ -108,10 +108,15 @@ class PipelineSession {
   const sim::SimulatedRig& simulated() const { return *sim_; }
 
  private:
-  std::optional<sim::TargetTruth> truth_for(std::uint64_t seq, const TargetRange& range);
+  // The simulated truth of the capture `seq`. Computing it projects every target's silhouette
+  // into the four cameras (their boxes): milliseconds a frame, which a session checking every
+  // range of a 50 Hz pipeline cannot spend per range. It is computed once per frame; with
+  // pre-rendered captures (cycled), once per pre-rendered frame, and kept.
+  const std::vector<sim::TargetTruth>& truth_at(std::uint64_t seq);
 
   SessionOptions options_;
-  std::unique_ptr<sim::SimulatedRig> sim_;  // for the truth only
+  std::unique_ptr<sim::SimulatedRig> sim_;                                // for the truth only
+  std::map<std::int64_t, std::vector<sim::TargetTruth>> truth_by_frame_;  // see truth_at
   std::unique_ptr<transport::Participant> participant_;
   std::unique_ptr<supervisor::Supervisor> supervisor_;
   std::unique_ptr<node::GeometrySubscriber> geometry_;
