@@ -11,6 +11,7 @@
 
 #include "thermovis/common.h"
 #include "thermovis/transport/participant.hpp"
+#include "thermovis/transport/qos.hpp"
 
 namespace thermovis::node {
 
@@ -63,15 +64,16 @@ std::chrono::nanoseconds deadline_from_ms(double milliseconds);
 class ServiceApp : public CLI::App {
  public:
   ServiceApp(const std::string& service, const std::string& description, bool with_rig = true);
-  // Adds --deadline-ms (default 20 ms, the 50 Hz frame period), described by `help`; deadline()
-  // gives it after parsing.
+  // Adds --deadline-ms (default transport::kDefaultFrameDeadline, 1.5 periods of 50 Hz frames),
+  // described by `help`; deadline() gives it after parsing.
   void add_deadline_option(const std::string& help);
   std::chrono::nanoseconds deadline() const { return deadline_from_ms(deadline_ms_); }
 
   CommonOptions common;
 
  private:
-  double deadline_ms_ = 20.0;
+  double deadline_ms_ =
+      std::chrono::duration<double, std::milli>(transport::kDefaultFrameDeadline).count();
 };
 
 }  // namespace thermovis::node
