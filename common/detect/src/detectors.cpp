@@ -1,7 +1,10 @@
 #include "thermovis/detect/detectors.hpp"
 
 #include <algorithm>
+#include <climits>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/objdetect.hpp>
 #include <stdexcept>
@@ -28,20 +31,56 @@ bool height_fits_ground(const cv::Rect& box, const camera::RectifiedCamera& grid
   return ratio >= o.height_ratio_min && ratio <= o.height_ratio_max;
 }
 
+std::vector<Component> label_components(const cv::Mat& mask, cv::Mat& labels) {
+  if (mask.type() != CV_8UC1) throw std::invalid_argument("label_components: mask must be CV_8UC1");
+  const int n = cv::connectedComponents(mask, labels, 8, CV_32S);
+  struct Extent {
+    int x0 = INT_MAX, y0 = INT_MAX, x1 = -1, y1 = -1, area = 0;
+  };
+  std::vector<Extent> extents(static_cast<std::size_t>(std::max(n - 1, 0)));
+  for (int y = 0; y < mask.rows; ++y) {
+    const std::uint8_t* m = mask.ptr<std::uint8_t>(y);
+    const int* l = labels.ptr<int>(y);
+    int x = 0;
+    while (x < mask.cols) {
+      // Masks are mostly empty: eight unset pixels at a time.
+      if (x + 8 <= mask.cols) {
+        std::uint64_t word;
+        std::memcpy(&word, m + x, sizeof word);
+        if (word == 0) {
+          x += 8;
+          continue;
+        }
+      }
+      const int end = std::min(x + 8, mask.cols);
+      for (; x < end; ++x) {
+        if (m[x] == 0) continue;
+        Extent& e = extents[static_cast<std::size_t>(l[x] - 1)];
+        e.x0 = std::min(e.x0, x);
+        e.x1 = std::max(e.x1, x);
+        e.y0 = std::min(e.y0, y);
+        e.y1 = y;  // rows come in order
+        ++e.area;
+      }
+    }
+  }
+  std::vector<Component> out;
+  out.reserve(extents.size());
+  for (const Extent& e : extents) {
+    out.push_back({cv::Rect(e.x0, e.y0, e.x1 - e.x0 + 1, e.y1 - e.y0 + 1), e.area});
+  }
+  return out;
+}
+
 std::vector<Detection> detect_warm_blobs(const cv::Mat& infrared,
                                          const camera::RectifiedCamera& grid,
                                          const WarmBlobOptions& options) {
   return detect_warm_blobs(infrared, &grid, options);
 }
 
-std::vector<Detection> detect_warm_blobs(const cv::Mat& infrared,
-                                         const camera::RectifiedCamera* grid,
-                                         const WarmBlobOptions& o) {
+WarmMask warm_blob_mask(const cv::Mat& infrared, const WarmBlobOptions& o) {
   if (infrared.type() != CV_16UC1 && infrared.type() != CV_8UC1) {
-    throw std::invalid_argument("detect_warm_blobs: infrared must be CV_16UC1 or CV_8UC1");
-  }
-  if (grid != nullptr && infrared.size() != grid->image_size()) {
-    throw std::invalid_argument("detect_warm_blobs: image size differs from the grid's");
+    throw std::invalid_argument("warm_blob_mask: infrared must be CV_16UC1 or CV_8UC1");
   }
   // Background statistics over the pixels inside the field (value > 0), on a subsample.
   std::vector<float> samples;
@@ -53,7 +92,8 @@ std::vector<Detection> detect_warm_blobs(const cv::Mat& infrared,
       if (v > 0) samples.push_back(v);
     }
   }
-  if (samples.size() < 16) return {};
+  WarmMask out;
+  if (samples.size() < 16) return out;
   auto median_of = [](std::vector<float> v) {
     auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
     std::nth_element(v.begin(), mid, v.end());
@@ -61,28 +101,39 @@ std::vector<Detection> detect_warm_blobs(const cv::Mat& infrared,
   };
   const double median = median_of(samples);
   for (float& v : samples) v = std::abs(v - static_cast<float>(median));
-  const double sigma = 1.4826 * median_of(samples);
-  const double threshold = median + std::max(o.k_sigma * sigma, o.min_excess_counts);
+  out.sigma = 1.4826 * median_of(samples);
+  out.threshold = median + std::max(o.k_sigma * out.sigma, o.min_excess_counts);
   // Compared in the image's own type (no float copy of the frame): above the threshold means
   // above its integer part.
-  cv::Mat mask;
-  cv::compare(infrared, cv::Scalar(std::floor(threshold)), mask, cv::CMP_GT);
-  const cv::Mat& values = infrared;
-  cv::morphologyEx(mask, mask, cv::MORPH_CLOSE, cv::getStructuringElement(cv::MORPH_RECT, {3, 5}));
-  cv::Mat labels, stats, centroids;
-  const int n = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
+  cv::compare(infrared, cv::Scalar(std::floor(out.threshold)), out.mask, cv::CMP_GT);
+  cv::morphologyEx(out.mask, out.mask, cv::MORPH_CLOSE,
+                   cv::getStructuringElement(cv::MORPH_RECT, {3, 5}));
+  return out;
+}
+
+std::vector<Detection> detect_warm_blobs(const cv::Mat& infrared,
+                                         const camera::RectifiedCamera* grid,
+                                         const WarmBlobOptions& o) {
+  if (infrared.type() != CV_16UC1 && infrared.type() != CV_8UC1) {
+    throw std::invalid_argument("detect_warm_blobs: infrared must be CV_16UC1 or CV_8UC1");
+  }
+  if (grid != nullptr && infrared.size() != grid->image_size()) {
+    throw std::invalid_argument("detect_warm_blobs: image size differs from the grid's");
+  }
+  const WarmMask warm = warm_blob_mask(infrared, o);
+  if (warm.mask.empty()) return {};
+  cv::Mat labels;
   std::vector<Detection> out;
-  for (int i = 1; i < n; ++i) {
-    const cv::Rect box(stats.at<int>(i, cv::CC_STAT_LEFT), stats.at<int>(i, cv::CC_STAT_TOP),
-                       stats.at<int>(i, cv::CC_STAT_WIDTH), stats.at<int>(i, cv::CC_STAT_HEIGHT));
-    if (stats.at<int>(i, cv::CC_STAT_AREA) < o.min_area_px) continue;
+  for (const Component& c : label_components(warm.mask, labels)) {
+    const cv::Rect& box = c.box;
+    if (c.area_px < o.min_area_px) continue;
     const double aspect = static_cast<double>(box.height) / box.width;
     if (aspect < o.min_aspect || aspect > o.max_aspect) continue;
     if (grid != nullptr && !height_fits_ground(box, *grid, o)) continue;
-    const double mean = cv::mean(values(box), mask(box))[0];
+    const double mean = cv::mean(infrared(box), warm.mask(box))[0];
     Detection d;
     d.box = box;
-    d.score = sigma > 0 ? (mean - threshold) / sigma : 1.0;
+    d.score = warm.sigma > 0 ? (mean - warm.threshold) / warm.sigma : 1.0;
     d.source = "infrared";
     out.push_back(d);
   }

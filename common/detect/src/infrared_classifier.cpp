@@ -82,14 +82,14 @@ void add_components(const cv::Mat& ir8, const cv::Rect& roi, const cv::Mat& insi
   cv::Mat mask;
   cv::compare(ir8(roi), cv::Scalar(thresholds[static_cast<std::size_t>(level)]), mask, cv::CMP_GT);
   if (!inside.empty()) mask &= inside;
-  cv::Mat labels, stats, centroids;
-  const int n = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
+  cv::Mat labels;
+  const std::vector<Component> components = label_components(mask, labels);
   const double too_large = o.max_frame_fraction * static_cast<double>(ir8.total());
-  for (int i = 1; i < n; ++i) {
-    const double area = stats.at<int>(i, cv::CC_STAT_AREA);
+  for (std::size_t k = 0; k < components.size(); ++k) {
+    const int i = static_cast<int>(k) + 1;  // its label
+    const double area = components[k].area_px;
     if (area < o.min_area_px) continue;
-    const cv::Rect local(stats.at<int>(i, cv::CC_STAT_LEFT), stats.at<int>(i, cv::CC_STAT_TOP),
-                         stats.at<int>(i, cv::CC_STAT_WIDTH), stats.at<int>(i, cv::CC_STAT_HEIGHT));
+    const cv::Rect& local = components[k].box;
     const cv::Rect box = local + roi.tl();
     if (area <= too_large && box.height >= o.min_height_px) {
       Candidate c;

@@ -8,7 +8,9 @@
 
 #include <memory>
 #include <opencv2/core/utility.hpp>
+#include <opencv2/imgproc.hpp>
 
+#include "thermovis/detect/detectors.hpp"
 #include "thermovis/detect/person_detector.hpp"
 #include "thermovis/fpga/remap.hpp"
 #include "thermovis/rectify/stereo_geometry.hpp"
@@ -71,6 +73,36 @@ void BM_Classifier8bit(benchmark::State& state) { run(state, true, true); }
 void BM_WarmBlobsRaw(benchmark::State& state) { run(state, false, false); }
 void BM_WarmBlobs8bit(benchmark::State& state) { run(state, false, true); }
 
+// Connected components of the frame's warm-blob mask (detect::warm_blob_mask): ours
+// (detect::label_components) against OpenCV's connectedComponentsWithStats, one thread.
+const cv::Mat& blob_mask() {
+  static const cv::Mat mask = detect::warm_blob_mask(frame().raw, {}).mask;
+  return mask;
+}
+
+void BM_Components(benchmark::State& state) {
+  const cv::Mat& mask = blob_mask();
+  const bool ours = state.range(0) == 1;
+  const int threads = cv::getNumThreads();
+  cv::setNumThreads(1);
+  cv::Mat labels, stats, centroids;
+  std::size_t found = 0;
+  for (auto _ : state) {
+    if (ours) {
+      found = detect::label_components(mask, labels).size();
+    } else {
+      found = static_cast<std::size_t>(
+                  cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S)) -
+              1;
+    }
+  }
+  cv::setNumThreads(threads);
+  state.SetLabel(ours ? "ours" : "opencv");
+  state.counters["components"] = static_cast<double>(found);
+  state.counters["set_pixels"] = cv::countNonZero(mask);
+}
+
+BENCHMARK(BM_Components)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
 BENCHMARK(BM_ClassifierRaw)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
 BENCHMARK(BM_Classifier8bit)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
 BENCHMARK(BM_WarmBlobsRaw)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();

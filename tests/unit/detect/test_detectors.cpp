@@ -127,3 +127,39 @@ TEST(Detect, BadInput) {
   ASSERT_EQ(merged.size(), 1u);
   EXPECT_EQ(merged[0].score, 2);
 }
+
+// label_components gives what OpenCV's connectedComponentsWithStats gives (labels, order, boxes,
+// areas) on masks of every density, widths that are not a multiple of the 8-pixel skip, and
+// components on the image's edges.
+TEST(LabelComponents, EqualsOpenCvsStatistics) {
+  cv::RNG rng(17);
+  for (const cv::Size size :
+       {cv::Size(936, 566), cv::Size(13, 7), cv::Size(1, 40), cv::Size(9, 1)}) {
+    for (const double density : {0.0, 0.002, 0.05, 0.5, 1.0}) {
+      cv::Mat noise(size, CV_32F), mask;
+      rng.fill(noise, cv::RNG::UNIFORM, 0.0, 1.0);
+      cv::compare(noise, cv::Scalar(density), mask, cv::CMP_LT);
+      // Blobs too, as a warm person makes them, some cut by the image's edges.
+      for (int k = 0; k < 6; ++k) {
+        const cv::Point centre(rng.uniform(-5, size.width + 5), rng.uniform(-5, size.height + 5));
+        cv::ellipse(mask, centre, {rng.uniform(1, 12), rng.uniform(2, 30)}, 0, 0, 360, 255, -1);
+      }
+      cv::Mat ours, theirs, stats, centroids;
+      const auto components = dt::label_components(mask, ours);
+      const int n = cv::connectedComponentsWithStats(mask, theirs, stats, centroids, 8, CV_32S);
+      ASSERT_EQ(static_cast<int>(components.size()), n - 1) << size << " density " << density;
+      EXPECT_EQ(cv::countNonZero(ours != theirs), 0) << size << " density " << density;
+      for (int i = 1; i < n; ++i) {
+        const auto& c = components[static_cast<std::size_t>(i - 1)];
+        ASSERT_EQ(
+            c.box,
+            cv::Rect(stats.at<int>(i, cv::CC_STAT_LEFT), stats.at<int>(i, cv::CC_STAT_TOP),
+                     stats.at<int>(i, cv::CC_STAT_WIDTH), stats.at<int>(i, cv::CC_STAT_HEIGHT)))
+            << "component " << i << " of " << size << " density " << density;
+        ASSERT_EQ(c.area_px, stats.at<int>(i, cv::CC_STAT_AREA)) << "component " << i;
+      }
+    }
+  }
+  cv::Mat labels;
+  EXPECT_THROW(dt::label_components(cv::Mat(4, 4, CV_16U), labels), std::invalid_argument);
+}
