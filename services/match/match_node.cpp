@@ -166,43 +166,57 @@ TargetMatch MatchNode::target_match(const Detection& detection, pipeline::Band b
   return target;
 }
 
+void MatchNode::match_boxes(const DetectionArray& detections, const pipeline::MatchImages& images,
+                            std::vector<TargetMatch>& into) {
+  for (const Detection& detection : detections.detections()) {
+    const cv::Rect box = node::to_rect(detection.box());
+    if (box.empty()) {
+      throw std::invalid_argument("detection " + std::to_string(detection.target_id()) +
+                                  " of frame " + std::to_string(detections.frame_seq()) +
+                                  ": box with no area or a non-finite field");
+    }
+    for (pipeline::BandMatches& band : stage_.stage().match(images, box)) {
+      into.push_back(target_match(detection, band.band, std::move(band.result)));
+    }
+  }
+}
+
 void MatchNode::answer(const DetectionArray& detections) {
   const std::int64_t start_ns = transport::now_ns();
   const std::uint64_t seq = detections.frame_seq();
-  const Pair* primary = primary_ ? find(*primary_, seq) : nullptr;
+  // rectify-fuse publishes a capture's infrared pair before its visible pair. With `both` the
+  // infrared entries do not depend on the visible ones: they are matched first, while the
+  // visible pair is still being rectified, and follow all the others in the array, so a full
+  // array loses only them. (`automatic` chooses the infrared pair from the visible result.)
+  const bool both = config_.match.band == pipeline::BandChoice::both;
   const Pair* infrared = infrared_ ? find(*infrared_, seq) : nullptr;
-  if (primary == nullptr && infrared == nullptr) {
-    ++stats_.no_frame;
-    return;
-  }
-  pipeline::MatchImages images;
-  if (primary != nullptr) {
-    images.primary_left = primary->left;
-    images.primary_right = primary->right;
-  }
-  if (infrared != nullptr) {
-    images.infrared_left = infrared->left;
-    images.infrared_right = infrared->right;
-  }
   MatchArray out;
   out.frame_seq(seq);
   out.capture_time_ns(detections.capture_time_ns());
   try {
-    // The infrared entries of `both` follow all the others, so a full array loses only them.
     std::vector<TargetMatch> infrared_entries;
-    for (const Detection& detection : detections.detections()) {
-      const cv::Rect box = node::to_rect(detection.box());
-      if (box.empty()) {
-        throw std::invalid_argument("detection " + std::to_string(detection.target_id()) +
-                                    " of frame " + std::to_string(seq) +
-                                    ": box with no area or a non-finite field");
-      }
-      std::vector<pipeline::BandMatches> bands = stage_.stage().match(images, box);
-      for (std::size_t b = 0; b < bands.size(); ++b) {
-        const bool second = config_.match.band == pipeline::BandChoice::both && b > 0;
-        TargetMatch entry = target_match(detection, bands[b].band, std::move(bands[b].result));
-        (second ? infrared_entries : out.targets()).push_back(std::move(entry));
-      }
+    if (both && infrared != nullptr) {
+      pipeline::MatchImages images;
+      images.infrared_left = infrared->left;
+      images.infrared_right = infrared->right;
+      match_boxes(detections, images, infrared_entries);
+    }
+    const Pair* primary = primary_ ? find(*primary_, seq) : nullptr;
+    if (primary == nullptr && infrared == nullptr) {
+      ++stats_.no_frame;
+      return;
+    }
+    pipeline::MatchImages images;
+    if (primary != nullptr) {
+      images.primary_left = primary->left;
+      images.primary_right = primary->right;
+    }
+    if (infrared != nullptr && !both) {
+      images.infrared_left = infrared->left;
+      images.infrared_right = infrared->right;
+    }
+    if (!images.primary_left.empty() || !images.infrared_left.empty()) {
+      match_boxes(detections, images, out.targets());
     }
     for (TargetMatch& entry : infrared_entries) {
       if (out.targets().size() >= MAX_TARGETS) {

@@ -59,6 +59,10 @@ class MatchNode {
   void take_frames(BandInput& input);
   const Pair* find(BandInput& input, std::uint64_t seq);
   void answer(const DetectionArray& detections);
+  // Every detection's box matched on `images`, the entries appended to `into`. Throws
+  // std::invalid_argument for a box with no area.
+  void match_boxes(const DetectionArray& detections, const pipeline::MatchImages& images,
+                   std::vector<TargetMatch>& into);
   // The message entry of one detection's matches (the best-correlated points it has room for).
   TargetMatch target_match(const Detection& detection, pipeline::Band band,
                            match::MatchResult result);
