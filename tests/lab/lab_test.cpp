@@ -66,7 +66,7 @@ class SplitPipeline {
       services_.push_back({service, lab.start(host, argv, dir / (service + ".log"), env)});
     };
     // 5 captures a second (THERMOVIS_LAB_RATE to measure others): each crosses a->b as two
-    // 12.5 MB samples (rectified visible and infrared, the plain type's full size), 125 MB/s,
+    // 13.1 MB samples (rectified visible and infrared, the plain type's full size), 131 MB/s,
     // within the 200 MB/s of udp.xml's flow controller. An offered load above it makes frames
     // superseded while still in flight and the results collapse (docs/deployment.md, lab).
     const char* rate = std::getenv("THERMOVIS_LAB_RATE");

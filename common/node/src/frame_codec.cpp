@@ -1,10 +1,21 @@
 #include "thermovis/node/frame_codec.hpp"
 
+#include <array>
 #include <cmath>
 #include <string>
+#include <type_traits>
 
 namespace thermovis::node {
 namespace {
+
+// frames.idl writes the frames' array bounds as literals beside the constants they stand for
+// (GRID_IMAGE_BYTES...): a constant changed alone would leave the arrays their old size.
+static_assert(std::tuple_size_v<std::decay_t<decltype(VisibleStereoFrame{}.left())>> ==
+              VISIBLE_IMAGE_BYTES);
+static_assert(std::tuple_size_v<std::decay_t<decltype(InfraredStereoFrame{}.left())>> ==
+              INFRARED_IMAGE_PIXELS);
+static_assert(std::tuple_size_v<std::decay_t<decltype(GridStereoFrame{}.left())>> ==
+              GRID_IMAGE_BYTES);
 
 std::string size_text(std::uint32_t width, std::uint32_t height) {
   return std::to_string(width) + "x" + std::to_string(height);

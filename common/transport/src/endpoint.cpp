@@ -139,7 +139,7 @@ void WriterBase::create() {
   dds::DataWriterQos dds_qos = writer_qos(qos_);
   if (qos_.kind == TopicKind::frame && !participant_->frame_flow_controller.empty()) {
     // Profiles for other hosts (udp.xml): frames leave through the participant's bandwidth
-    // limit, from the flow controller's thread, so a 12.5 MB sample is spread over time
+    // limit, from the flow controller's thread, so a 13.1 MB sample is spread over time
     // instead of overflowing the receiver's socket buffer.
     dds_qos.publish_mode().kind = dds::ASYNCHRONOUS_PUBLISH_MODE;
     dds_qos.publish_mode().flow_controller_name = participant_->frame_flow_controller.c_str();
