@@ -1,6 +1,6 @@
 #include "ros2_bridge_node.hpp"
 
-#include "ros2_messages.hpp"
+#include "thermovis/ros2_bridge/ros2_messages.hpp"
 #include "thermovis/node/frame_codec.hpp"
 #include "thermovis/node/service.hpp"
 #include "thermovis/transport/qos.hpp"
