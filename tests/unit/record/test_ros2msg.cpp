@@ -24,8 +24,8 @@ TEST(Ros2msgDependencies, FieldTypesInNameOrderWithoutPrimitivesConstantsOrArray
       "float32[9] k\n"
       "Target best\n";
   EXPECT_EQ(ros2msg_dependencies("my_msgs", msg),
-            (std::vector<std::string>{"builtin_interfaces/msg/Time", "geometry_msgs/msg/Point",
-                                      "my_msgs/msg/Target", "std_msgs/msg/Header"}));
+            (std::vector<std::string>{"builtin_interfaces/msg/Time", "geometry_msgs/Point",
+                                      "my_msgs/Target", "std_msgs/Header"}));
 }
 
 TEST(Ros2msgDependencies, ALineWithoutANameIsNamed) {
@@ -37,19 +37,19 @@ TEST(Ros2msgDependencies, ALineWithoutANameIsNamed) {
   }
 }
 
-TEST(Ros2msgSchema, DependenciesDepthFirstEachOnceAfterTheirSeparator) {
+TEST(Ros2msgSchema, DependenciesDepthFirstOncePerWrittenNameAfterTheirSeparator) {
   const std::map<std::string, std::string> files{
       {"a/msg/Top", "std_msgs/Header header\nB[] bs\nC c\n"},
-      {"a/msg/B", "C c\n"},
+      {"a/msg/B", "a/msg/C c\n"},
       {"a/msg/C", "float32 x\n"},
       {"std_msgs/msg/Header", "builtin_interfaces/Time stamp\nstring frame_id\n"},
       {"builtin_interfaces/msg/Time", "int32 sec\nuint32 nanosec\n"}};
   const std::string sep = std::string("\n") + kRos2msgSeparator + "\nMSG: ";
   EXPECT_EQ(ros2msg_schema("a/msg/Top", [&](const std::string& t) { return files.at(t); }),
-            "std_msgs/Header header\nB[] bs\nC c\n" + sep + "a/msg/B\nC c\n" + sep +
-                "a/msg/C\nfloat32 x\n" + sep +
-                "std_msgs/msg/Header\nbuiltin_interfaces/Time stamp\nstring frame_id\n" + sep +
-                "builtin_interfaces/msg/Time\nint32 sec\nuint32 nanosec\n");
+            "std_msgs/Header header\nB[] bs\nC c\n" + sep + "a/B\na/msg/C c\n" + sep +
+                "a/msg/C\nfloat32 x\n" + sep + "a/C\nfloat32 x\n" + sep +
+                "std_msgs/Header\nbuiltin_interfaces/Time stamp\nstring frame_id\n" + sep +
+                "builtin_interfaces/Time\nint32 sec\nuint32 nanosec\n");
   EXPECT_EQ(std::string(kRos2msgSeparator).size(), 80U);
 }
 
