@@ -1,8 +1,8 @@
 #include "ros2_bridge_node.hpp"
 
-#include "ros2_messages.hpp"
 #include "thermovis/node/frame_codec.hpp"
 #include "thermovis/node/service.hpp"
+#include "thermovis/ros2_bridge/ros2_messages.hpp"
 #include "thermovis/transport/qos.hpp"
 #include "thermovis/transport/topics.hpp"
 

@@ -12,10 +12,11 @@
 #include <cstdint>
 #include <string>
 
-#include "ros2_types.hpp"
 #include "thermovis/frames.h"
 #include "thermovis/node/health.hpp"
 #include "thermovis/perception.h"
+#include "thermovis/ros2_bridge/ros2_messages.hpp"
+#include "thermovis/ros2_bridge/ros2_types.hpp"
 #include "thermovis/transport/reader.hpp"
 #include "thermovis/transport/writer.hpp"
 
@@ -24,8 +25,8 @@ namespace thermovis::ros2_bridge {
 struct Ros2BridgeConfig {
   // ROS frame ids: the fused image is on the rectified left grid; ranges' positions are in the
   // left visible camera's optical frame (x right, y down, z forward), boxes on the grid.
-  std::string image_frame_id = "thermovis_rectified_left";
-  std::string ranges_frame_id = "thermovis_visible_left_optical";
+  std::string image_frame_id = kImageFrameId;
+  std::string ranges_frame_id = kRangesFrameId;
   std::int32_t image_depth = 2;   // KEEP_LAST of the image writer (each sample is a whole image)
   std::int32_t event_depth = 10;  // ranges and detections: rclcpp's default depth
 };

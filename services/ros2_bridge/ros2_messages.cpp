@@ -1,8 +1,12 @@
-#include "ros2_messages.hpp"
+#include "thermovis/ros2_bridge/ros2_messages.hpp"
 
 #include <cstring>
+#include <map>
+#include <stdexcept>
 
+#include "ros2_msg_text.hpp"
 #include "thermovis/node/frame_codec.hpp"
+#include "thermovis/record/ros2msg.hpp"
 #include "thermovis/transport/stamps.hpp"
 
 namespace thermovis::ros2_bridge {
@@ -28,6 +32,41 @@ msgs::Box2D_ to_ros(const Box2D& box) {
 }
 
 }  // namespace
+
+std::string ros2_topic_name(const std::string& dds_topic) {
+  constexpr const char* kPrefix = "rt/";
+  if (dds_topic.rfind(kPrefix, 0) != 0 || dds_topic.size() == 3)
+    throw std::invalid_argument("DDS topic '" + dds_topic + "' is not a ROS 2 topic (rt/...)");
+  return dds_topic.substr(2);
+}
+
+std::string ros2_type_name(const std::string& dds_type) {
+  // <package>::msg::dds_::<Type>_
+  const std::string middle = "::msg::dds_::";
+  const auto at = dds_type.find(middle);
+  const std::size_t name_start = at + middle.size();
+  if (at == std::string::npos || at == 0 || dds_type.size() < name_start + 2 ||
+      dds_type.back() != '_' || dds_type.find("::", name_start) != std::string::npos)
+    throw std::invalid_argument("DDS type '" + dds_type +
+                                "' is not a ROS 2 type (<package>::msg::dds_::<Type>_)");
+  return dds_type.substr(0, at) + "/msg/" +
+         dds_type.substr(name_start, dds_type.size() - name_start - 1);
+}
+
+const std::string& ros2_msg_text(const std::string& ros2_type) {
+  const auto& files = ros2_msg_files();
+  const auto it = files.find(ros2_type);
+  if (it != files.end()) return it->second;
+  std::string known;
+  for (const auto& [name, text] : files) known += (known.empty() ? "" : ", ") + name;
+  throw std::invalid_argument("no built-in .msg definition of ROS 2 type '" + ros2_type +
+                              "' (known: " + known + ")");
+}
+
+std::string ros2msg_definition(const std::string& ros2_type) {
+  return record::ros2msg_schema(ros2_type,
+                                [](const std::string& type) { return ros2_msg_text(type); });
+}
 
 builtin_interfaces::msg::dds_::Time_ to_ros_time(std::int64_t ns) {
   constexpr std::int64_t kPerSecond = 1'000'000'000;

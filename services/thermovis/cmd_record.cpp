@@ -1,6 +1,8 @@
 // thermovis record: the topics of a running pipeline into an MCAP file (Foxglove, ROS 2 tools,
-// `thermovis replay`). Each sample is stored as the CDR bytes DDS carried, with the time it was
-// received (log time) and the time its writer published it.
+// `thermovis replay`), or with --ros2 into a ROS 2 bag folder (`ros2 bag play`) of the topics
+// thermovis-ros2 publishes. Each sample is stored as CDR bytes (those DDS carried, or those of
+// the ROS 2 message the bridge makes of it), with the time it was received (log time) and the
+// time its writer published it.
 #include <atomic>
 #include <condition_variable>
 #include <deque>
@@ -15,9 +17,11 @@
 
 #include "command.hpp"
 #include "recording.hpp"
+#include "ros2_bag.hpp"
 #include "thermovis/node/service.hpp"
 #include "thermovis/record/foxglove.hpp"
 #include "thermovis/record/mcap.hpp"
+#include "thermovis/ros2_bridge/ros2_messages.hpp"
 #include "thermovis/runtime/rig_io.hpp"
 #include "thermovis/transport/clock.hpp"
 #include "thermovis/transport/topics.hpp"
@@ -31,6 +35,7 @@ using tv::cli::TappedSample;
 struct Options {
   tv::node::CommonOptions common;
   std::filesystem::path out;
+  std::filesystem::path ros2;  // a ROS 2 bag folder instead of `out`
   std::string topics;
   double seconds = 0.0;
   std::string compression = "zstd";
@@ -97,13 +102,19 @@ class SampleQueue {
 
 int run_record(const Options& opt) {
   tv::node::install_stop_handlers();
-  const auto topics = tv::cli::parse_topic_list(opt.topics, default_topics());
+  const bool bag = !opt.ros2.empty();
+  if (!bag && opt.out.empty())
+    throw std::invalid_argument("where to record: --out FILE.mcap or --ros2 DIR is needed");
+  const auto topics = bag ? std::vector<RecordableTopic>{}
+                          : tv::cli::parse_topic_list(opt.topics, default_topics());
   tv::record::McapWriterOptions wo;
   wo.library = "thermovis record";
+  if (bag) wo.profile = tv::cli::kRos2Profile;
   wo.compression = opt.compression == "zstd" ? tv::record::McapCompression::zstd
                                              : tv::record::McapCompression::none;
   wo.zstd_level = opt.zstd_level;
-  tv::record::McapWriter writer(opt.out, wo);
+  const std::filesystem::path file = bag ? tv::cli::create_ros2_bag_folder(opt.ros2) : opt.out;
+  tv::record::McapWriter writer(file, wo);
   auto participant = tv::node::make_participant(opt.common);
 
   // Every source of messages: the DDS topics as CDR, then Foxglove's views of them as JSON.
@@ -127,8 +138,21 @@ int run_record(const Options& opt) {
     sources.push_back({topic.topic, writer.add_channel(schema, topic.topic, "cdr"),
                        tv::cli::make_tap(*participant, topic)});
   }
+  // A ROS 2 bag: the bridge's topics as rosbag2 stores them, nothing else.
+  std::vector<tv::cli::Ros2BagTopicCount> bag_topics;
+  for (const auto& topic :
+       bag ? tv::cli::ros2_bag_topics() : std::vector<tv::cli::Ros2BagTopic>{}) {
+    const auto schema = schema_id(topic.type, "ros2msg",
+                                  [&] { return tv::ros2_bridge::ros2msg_definition(topic.type); });
+    bag_topics.push_back({topic.name, topic.type, tv::cli::offered_qos_profiles(topic.qos), 0});
+    sources.push_back(
+        {topic.name,
+         writer.add_channel(schema, topic.name, "cdr",
+                            {{"offered_qos_profiles", bag_topics.back().offered_qos_profiles}}),
+         tv::cli::make_ros2_tap(*participant, topic)});
+  }
   const auto& image_schema = tv::record::compressed_image_schema();
-  for (const RecordableTopic& topic : opt.images == "none"
+  for (const RecordableTopic& topic : opt.images == "none" || bag
                                           ? std::vector<RecordableTopic>{}
                                           : tv::cli::parse_topic_list(opt.images, {})) {
     const auto schema =
@@ -137,7 +161,7 @@ int run_record(const Options& opt) {
     sources.push_back({name, writer.add_channel(schema, name, "json"),
                        tv::cli::make_image_view_tap(*participant, topic, opt.image)});
   }
-  if (opt.scene) {
+  if (opt.scene && !bag) {
     const auto& scene_schema = tv::record::scene_update_schema();
     const auto schema =
         schema_id(scene_schema.name, "jsonschema", [&] { return scene_schema.json_schema; });
@@ -191,8 +215,7 @@ int run_record(const Options& opt) {
   const bool json = opt.json;
   if (!json) {
     std::cout << "thermovis record: " << sources.size() << " channels from DDS domain "
-              << opt.common.domain << " into " << opt.out.string() << " (Ctrl-C stops)"
-              << std::endl;
+              << opt.common.domain << " into " << file.string() << " (Ctrl-C stops)" << std::endl;
   }
   const auto start = std::chrono::steady_clock::now();
   const auto elapsed = [&] {
@@ -217,8 +240,17 @@ int run_record(const Options& opt) {
   while (auto item = queue.pop(std::chrono::milliseconds(0))) write(*item);
   const double seconds = elapsed();
   writer.close();
+  if (bag) {
+    // The channels of the bag are sources 0.. in the order of bag_topics.
+    for (std::size_t i = 0; i < bag_topics.size(); ++i) {
+      const auto& per_channel = writer.statistics().channel_message_counts;
+      const auto count = per_channel.find(sources[i].channel);
+      bag_topics[i].message_count = count == per_channel.end() ? 0 : count->second;
+    }
+    tv::cli::write_ros2_bag_metadata(file, writer.statistics(), bag_topics);
+  }
 
-  const double file_mb = static_cast<double>(std::filesystem::file_size(opt.out)) / 1e6;
+  const double file_mb = static_cast<double>(std::filesystem::file_size(file)) / 1e6;
   nlohmann::json per_topic = nlohmann::json::object();
   std::uint64_t missed = 0, dropped = 0;
   for (std::size_t i = 0; i < sources.size(); ++i) {
@@ -230,7 +262,7 @@ int run_record(const Options& opt) {
     dropped += counts[i].dropped;
   }
   const nlohmann::json summary{
-      {"file", opt.out.string()},
+      {"file", file.string()},
       {"seconds", seconds},
       {"messages", writer.statistics().message_count},
       {"payload_mb", static_cast<double>(payload_bytes) / 1e6},
@@ -270,10 +302,17 @@ THERMOVIS_COMMAND(
           "capture). Captures the recorder could not take before the next ones replaced them "
           "are counted as missed, samples the disk could not keep up with as dropped: both are "
           "reported at the end.");
-      app.add_option("--out", opt->out, "MCAP file to write")->required();
-      app.add_option("--topics", opt->topics,
-                     "comma-separated topics (default: the raw captures, detections, matches, "
-                     "ranges and timing)");
+      auto* out = app.add_option("--out", opt->out, "MCAP file to write");
+      auto* ros2 = app.add_option(
+          "--ros2", opt->ros2,
+          "instead of --out: a ROS 2 bag folder (new or empty) for `ros2 bag play`, of the topics "
+          "thermovis-ros2 publishes (/thermovis/fused/image, /thermovis/ranges, "
+          "/thermovis/detections) as rosbag2 writes them with its MCAP storage");
+      out->excludes(ros2);
+      auto* topic_list =
+          app.add_option("--topics", opt->topics,
+                         "comma-separated topics (default: the raw captures, detections, matches, "
+                         "ranges and timing)");
       app.add_option("--seconds", opt->seconds, "stop after this long (0: at SIGINT/SIGTERM)")
           ->capture_default_str()
           ->check(CLI::NonNegativeNumber);
@@ -292,22 +331,30 @@ THERMOVIS_COMMAND(
                      "wait this long for a writer on every topic before recording starts, s")
           ->capture_default_str()
           ->check(CLI::NonNegativeNumber);
-      app.add_option("--images", opt->images,
-                     "comma-separated frame topics also recorded as pictures Foxglove shows "
-                     "(foxglove.CompressedImage of the left eye on <topic>/left/compressed: JPEG, "
-                     "or lossless 16-bit PNG for raw infrared), or none")
-          ->capture_default_str();
-      app.add_option("--image-rate", opt->image.rate_hz,
-                     "pictures a second per --images topic, at most (by capture time)")
-          ->capture_default_str()
-          ->check(CLI::PositiveNumber);
-      app.add_option("--jpeg-quality", opt->image.jpeg_quality, "JPEG quality of the pictures")
-          ->capture_default_str()
-          ->check(CLI::Range(1, 100));
-      app.add_flag("!--no-scene", opt->scene,
-                   "no foxglove.SceneUpdate of the ranges (thermovis/scene) and no "
-                   "foxglove.FrameTransforms of the rig's cameras (thermovis/transforms)");
+      auto* images =
+          app.add_option(
+                 "--images", opt->images,
+                 "comma-separated frame topics also recorded as pictures Foxglove shows "
+                 "(foxglove.CompressedImage of the left eye on <topic>/left/compressed: JPEG, "
+                 "or lossless 16-bit PNG for raw infrared), or none")
+              ->capture_default_str();
+      auto* image_rate =
+          app.add_option("--image-rate", opt->image.rate_hz,
+                         "pictures a second per --images topic, at most (by capture time)")
+              ->capture_default_str()
+              ->check(CLI::PositiveNumber);
+      auto* jpeg_quality =
+          app.add_option("--jpeg-quality", opt->image.jpeg_quality, "JPEG quality of the pictures")
+              ->capture_default_str()
+              ->check(CLI::Range(1, 100));
+      auto* no_scene =
+          app.add_flag("!--no-scene", opt->scene,
+                       "no foxglove.SceneUpdate of the ranges (thermovis/scene) and no "
+                       "foxglove.FrameTransforms of the rig's cameras (thermovis/transforms)");
       app.add_flag("--json", opt->json, "print the summary as one JSON object");
+      // A ROS 2 bag holds the bridge's topics only: no pipeline topics, pictures or scene.
+      for (auto* option : {topic_list, images, image_rate, jpeg_quality, no_scene})
+        ros2->excludes(option);
       return [opt] { return run_record(*opt); };
     });
 

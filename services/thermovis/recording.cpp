@@ -2,6 +2,7 @@
 
 #include <Eigen/Geometry>
 #include <iomanip>
+#include <iostream>
 #include <map>
 #include <optional>
 #include <sstream>
@@ -11,6 +12,8 @@
 #include "thermovis/node/frame_codec.hpp"
 #include "thermovis/record/foxglove.hpp"
 #include "thermovis/record/idl_schema.hpp"
+#include "thermovis/ros2_bridge/ros2_messages.hpp"
+#include "thermovis/ros2_bridge/ros2_types.hpp"
 #include "thermovis/transport/reader.hpp"
 #include "thermovis/transport/topic_types.hpp"
 #include "thermovis/transport/topics.hpp"
@@ -135,6 +138,19 @@ struct BorrowedPayload {
   BorrowedPayload& operator=(const BorrowedPayload&) = delete;
 };
 
+// `sample`'s CDR serialized payload (encapsulation header and data, as DDS sends it) into `out`.
+template <class T, class PubSub>
+void serialize_cdr(const std::string& topic, PubSub& pubsub, const T& sample,
+                   std::vector<std::uint8_t>& out) {
+  T* data = const_cast<T*>(&sample);  // Fast DDS's serialize takes void*, only reads
+  out.resize(pubsub.getSerializedSizeProvider(data)());
+  BorrowedPayload payload(out.data(), out.size());
+  payload.payload.length = 0;
+  if (!pubsub.serialize(data, &payload.payload))
+    throw std::runtime_error(topic + ": a sample does not serialize");
+  out.resize(payload.payload.length);
+}
+
 // What a tap records of one taken sample: its bytes into `out`, or false to skip it.
 template <class T>
 using Encode = std::function<bool(const T& sample, std::vector<std::uint8_t>& out)>;
@@ -181,13 +197,7 @@ class Tap final : public TopicTap {
     return qos;
   }
   bool serialize(const T& taken, std::vector<std::uint8_t>& out) {
-    T* sample = const_cast<T*>(&taken);  // Fast DDS's serialize takes void*, only reads
-    out.resize(pubsub_.getSerializedSizeProvider(sample)());
-    BorrowedPayload payload(out.data(), out.size());
-    payload.payload.length = 0;
-    if (!pubsub_.serialize(sample, &payload.payload))
-      throw std::runtime_error(topic_ + ": a sample does not serialize");
-    out.resize(payload.payload.length);
+    serialize_cdr(topic_, pubsub_, taken, out);
     return true;
   }
   std::string topic_;
@@ -363,6 +373,80 @@ std::vector<record::FrameTransform> rig_transforms(const camera::Rig& rig) {
     out.push_back(std::move(t));
   }
   return out;
+}
+
+const std::vector<Ros2BagTopic>& ros2_bag_topics() {
+  namespace ros = ros2_bridge;
+  static const std::vector<Ros2BagTopic> table{
+      {ros::ros2_topic_name(topics::kRos2FusedImage),
+       ros::ros2_type_name(
+           transport::TypeSupportOf<sensor_msgs::msg::dds_::Image_>::type().getName()),
+       topics::kFused, transport::event_topic_qos()},
+      {ros::ros2_topic_name(topics::kRos2Ranges),
+       ros::ros2_type_name(
+           transport::TypeSupportOf<thermovis_msgs::msg::dds_::RangeArray_>::type().getName()),
+       topics::kRanges, transport::event_topic_qos()},
+      {ros::ros2_topic_name(topics::kRos2Detections),
+       ros::ros2_type_name(
+           transport::TypeSupportOf<thermovis_msgs::msg::dds_::DetectionArray_>::type().getName()),
+       topics::kDetections, transport::event_topic_qos()},
+  };
+  return table;
+}
+
+namespace {
+
+// A tap of `source` recording each sample as ROS 2 message M: `convert(sample, message)` (false:
+// not recorded), then M's CDR.
+template <class T, class M, class Convert>
+std::unique_ptr<TopicTap> ros2_tap(transport::Participant& participant, const Ros2BagTopic& topic,
+                                   Convert convert) {
+  auto pubsub = std::make_shared<typename transport::TypeSupportOf<M>::type>();
+  auto message = std::make_shared<M>();  // reused: an image's data buffer keeps its size
+  Encode<T> encode = [name = topic.name, pubsub, message, convert](const T& sample,
+                                                                   std::vector<std::uint8_t>& out) {
+    if (!convert(sample, *message)) return false;
+    serialize_cdr(name, *pubsub, *message, out);
+    return true;
+  };
+  return std::make_unique<Tap<T>>(participant, recordable_topic(topic.source), std::move(encode));
+}
+
+}  // namespace
+
+std::unique_ptr<TopicTap> make_ros2_tap(transport::Participant& participant,
+                                        const Ros2BagTopic& topic) {
+  namespace ros = ros2_bridge;
+  if (topic.source == topics::kFused) {
+    return ros2_tap<GridStereoFrame, sensor_msgs::msg::dds_::Image_>(
+        participant, topic, [](const GridStereoFrame& frame, sensor_msgs::msg::dds_::Image_& m) {
+          try {
+            ros::to_ros_image(frame, ros::kImageFrameId, m);
+          } catch (const node::FrameError& e) {
+            // As the bridge does: a frame with a corrupt header is reported and skipped.
+            std::cerr << "thermovis record: " << topics::kFused << ": " << e.what() << std::endl;
+            return false;
+          }
+          return true;
+        });
+  }
+  if (topic.source == topics::kRanges) {
+    return ros2_tap<RangeArray, thermovis_msgs::msg::dds_::RangeArray_>(
+        participant, topic,
+        [](const RangeArray& ranges, thermovis_msgs::msg::dds_::RangeArray_& m) {
+          m = ros::to_ros(ranges, ros::kRangesFrameId);
+          return true;
+        });
+  }
+  if (topic.source == topics::kDetections) {
+    return ros2_tap<DetectionArray, thermovis_msgs::msg::dds_::DetectionArray_>(
+        participant, topic,
+        [](const DetectionArray& detections, thermovis_msgs::msg::dds_::DetectionArray_& m) {
+          m = ros::to_ros(detections, ros::kImageFrameId);
+          return true;
+        });
+  }
+  throw std::invalid_argument("no ROS 2 message for pipeline topic " + topic.source);
 }
 
 std::unique_ptr<TopicPlayer> make_player(transport::Participant& participant,

@@ -85,6 +85,21 @@ std::unique_ptr<TopicTap> make_scene_view_tap(transport::Participant& participan
 inline constexpr const char* kTransformsChannel = "thermovis/transforms";
 std::vector<record::FrameTransform> rig_transforms(const camera::Rig& rig);
 
+// A topic of a ROS 2 bag (`thermovis record --ros2`): one that thermovis-ros2 publishes, made
+// by the same conversion (ros2_bridge/ros2_messages.hpp) from the pipeline topic it reads.
+struct Ros2BagTopic {
+  std::string name;         // ROS 2 topic (no "rt"), e.g. "/thermovis/ranges"
+  std::string type;         // ROS 2 type, e.g. "thermovis_msgs/msg/RangeArray"
+  std::string source;       // the pipeline topic it is made from, e.g. "thermovis/ranges"
+  transport::TopicQos qos;  // what the bridge's writer offers
+};
+// The bridge's topics: the fused image, the ranges and the detections.
+const std::vector<Ros2BagTopic>& ros2_bag_topics();
+// Takes `topic.source`'s samples and records each as the CDR serialized payload of the ROS 2
+// message the bridge would publish for it (message encoding "cdr", as rosbag2 stores them).
+std::unique_ptr<TopicTap> make_ros2_tap(transport::Participant& participant,
+                                        const Ros2BagTopic& topic);
+
 // Publishes recorded samples on one topic.
 class TopicPlayer {
  public:
