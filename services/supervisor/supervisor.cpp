@@ -208,7 +208,8 @@ std::map<std::string, std::string> default_vars(int domain, const std::string& p
           {"domain", std::to_string(domain)},
           {"profile", profile},
           {"scene", std::filesystem::absolute(scene_path).string()},
-          {"prerender", "0"}};
+          {"prerender", "0"},
+          {"grid_scale", "0.5"}};
 }
 
 std::string summary_json(const LatencySummary& s) {

@@ -107,6 +107,7 @@ int run_bench(const Options& opt) {
     auto j = thermovis::cli::summary_json(latency, errors);
     j["seconds"] = opt.seconds;
     j["prerender"] = opt.session.prerender;
+    j["grid_scale"] = opt.session.grid_scale;
     nlohmann::json processes = nlohmann::json::object();
     for (const auto& p : cpu) {
       processes[p.service] = {

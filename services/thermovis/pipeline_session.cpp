@@ -77,6 +77,10 @@ void add_session_options(CLI::App& app, SessionOptions& s) {
                  "captures the bridge renders at start and then cycles (0: renders live)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
+  app.add_option("--grid-scale", s.grid_scale,
+                 "rectified grid resolution relative to the visible camera's (1.0: its full grid)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.05, 1.0));
 }
 
 PipelineSession::PipelineSession(const SessionOptions& options) : options_(options) {
@@ -86,6 +90,9 @@ PipelineSession::PipelineSession(const SessionOptions& options) : options_(optio
   const std::string profile = options.profile.empty() ? transport::kHostProfile : options.profile;
   config.vars = supervisor::default_vars(options.domain, profile, options.scene);
   config.vars["prerender"] = std::to_string(options.prerender);
+  std::ostringstream scale;
+  scale << options.grid_scale;
+  config.vars["grid_scale"] = scale.str();
   // The services find the rig through $THERMOVIS_RIG (runtime::default_rig_path).
   if (!options.rig.empty())
     setenv("THERMOVIS_RIG", std::filesystem::absolute(options.rig).c_str(), 1);

@@ -30,11 +30,12 @@ struct SessionOptions {
   int domain = 0;
   std::string profile;  // empty: the shared-memory host profile
   double latency_deadline_ms = 20.0;
-  int prerender = 0;  // the bridge's pre-rendered captures (0: renders live)
+  int prerender = 0;        // the bridge's pre-rendered captures (0: renders live)
+  double grid_scale = 0.5;  // rectify-fuse --grid-scale (the manifest's ${grid_scale})
 };
 
 // Adds --scene, --rig, --manifest, --domain (default $THERMOVIS_DOMAIN), --profile, --log-dir,
-// --latency-deadline-ms and --prerender.
+// --latency-deadline-ms, --prerender and --grid-scale.
 void add_session_options(CLI::App& app, SessionOptions& options);
 
 // One range of the pipeline with the simulated target it belongs to, if any
