@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <climits>
 #include <cstdint>
+#include <opencv2/core/utility.hpp>
 #include <stdexcept>
 #include <string>
 
@@ -240,7 +241,19 @@ void FastRemapper::remap(const cv::Mat& source, cv::Mat& out, int first_row, int
 }
 
 void FastRemapper::remap(const cv::Mat& source, cv::Mat& out) const {
-  remap(source, out, 0, size_.height - 1);
+  const int stripes = std::min(cv::getNumThreads(), size_.height);
+  if (stripes <= 1) {
+    remap(source, out, 0, size_.height - 1);
+    return;
+  }
+  // OpenCV's worker threads (cv::setNumThreads; a service's --threads) each take a band of
+  // rows, which the row-range remap writes bit-identically to the whole one. The checks and
+  // the allocation come first, on this thread.
+  check_remap_source(source, source_size_);
+  out.create(size_, source.type());
+  cv::parallel_for_(
+      cv::Range(0, size_.height),
+      [&](const cv::Range& rows) { remap(source, out, rows.start, rows.end - 1); }, stripes);
 }
 
 cv::Mat FastRemapper::remap(const cv::Mat& source) const {

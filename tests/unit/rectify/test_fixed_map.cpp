@@ -7,6 +7,7 @@
 #include <fstream>
 #include <map>
 #include <opencv2/core.hpp>
+#include <opencv2/core/utility.hpp>
 #include <random>
 #include <string>
 
@@ -409,6 +410,24 @@ TEST(FastRemap, RowRangeWritesExactlyItsRows) {
   fast.remap(image, fresh, 100, 101);
   EXPECT_EQ(fresh.size(), t.table.size());
   EXPECT_EQ(count_differences(fresh.rowRange(100, 102), model.rowRange(100, 102)), 0);
+}
+
+TEST(FastRemap, WorkerThreadsGiveTheSameImage) {
+  const RigTable& t = rig_table(0);
+  const int threads = cv::getNumThreads();
+  for (const int type : {CV_8UC3, CV_16UC1}) {
+    const cv::Mat image =
+        random_image(t.table.source_size(), type, type == CV_8UC3 ? 255 : 16383, 8);
+    const cv::Mat model = fpga::remap_reference(image, t.table);
+    const fpga::FastRemapper fast(t.table);
+    for (const int n : {2, 3, 7}) {
+      cv::setNumThreads(n);
+      cv::Mat out;
+      fast.remap(image, out);
+      EXPECT_EQ(count_differences(out, model), 0) << n << " threads, type " << type;
+    }
+  }
+  cv::setNumThreads(threads);
 }
 
 TEST(FastRemap, RejectsBadRowsAndImagesWithAMessage) {

@@ -38,7 +38,8 @@ class FastRemapper {
  public:
   explicit FastRemapper(const FixedPointMap& map);
   // Same checks as remap_reference; `out` is reallocated only when its size or type differ
-  // (nothing else is allocated per call).
+  // (nothing else is allocated per call). With cv::getNumThreads() > 1 the rows are shared
+  // among OpenCV's worker threads, the output unchanged.
   void remap(const cv::Mat& source, cv::Mat& out) const;
   cv::Mat remap(const cv::Mat& source) const;
   // Only the output rows first_row..last_row (inclusive), bit-identical to those rows of the
