@@ -44,6 +44,43 @@ namespace tv = thermovis;
 namespace topics = tv::transport::topics;
 namespace fs = std::filesystem;
 
+// The range array the decoders must give back field by field: frame 42, one infrared person.
+tv::RangeArray known_range(std::int64_t capture_ns) {
+  tv::RangeArray range;
+  range.frame_seq(42);
+  range.capture_time_ns(capture_ns);
+  tv::TargetRange target;
+  target.target_id(3);
+  target.label("person");
+  target.distance_m(12.5F);
+  target.sigma_m(0.5F);
+  target.x_m(1.5F);
+  target.y_m(0.25F);
+  target.z_m(12.25F);
+  target.box().x(100.0F);
+  target.box().y(200.0F);
+  target.box().width(30.0F);
+  target.box().height(80.0F);
+  target.point_count(77);
+  target.band(tv::BAND_INFRARED);
+  range.targets().push_back(target);
+  return range;
+}
+
+// The detection of that person, in the same frame.
+tv::DetectionArray known_detection(const tv::RangeArray& range) {
+  tv::DetectionArray detection;
+  detection.frame_seq(range.frame_seq());
+  detection.capture_time_ns(range.capture_time_ns());
+  tv::Detection d;
+  d.target_id(range.targets()[0].target_id());
+  d.label("person");
+  d.score(0.75F);
+  d.box(range.targets()[0].box());
+  detection.detections().push_back(d);
+  return detection;
+}
+
 // The first `name` on PATH, or empty.
 fs::path on_path(const std::string& name) {
   const char* path = std::getenv("PATH");
@@ -189,34 +226,9 @@ TEST_F(FoxgloveClient, EveryChannelParsesAndEveryMessageDecodesToWhatWasPublishe
   ASSERT_TRUE(infrared.wait_for_readers(2, 60s)) << record.log();
   ASSERT_TRUE(fused.wait_for_readers(1, 60s)) << record.log();
 
-  tv::RangeArray range;
-  range.frame_seq(42);
-  range.capture_time_ns(1'700'000'000'000'000'000);
-  tv::TargetRange target;
-  target.target_id(3);
-  target.label("person");
-  target.distance_m(12.5F);
-  target.x_m(1.5F);
-  target.y_m(0.25F);
-  target.z_m(12.25F);
-  target.box(tv::Box2D{});
-  target.box().x(100.0F);
-  target.box().y(200.0F);
-  target.box().width(30.0F);
-  target.box().height(80.0F);
-  target.band(tv::BAND_INFRARED);
-  range.targets().push_back(target);
+  const tv::RangeArray range = known_range(1'700'000'000'000'000'000);
   ranges.write(range);
-
-  tv::DetectionArray detection;
-  detection.frame_seq(42);
-  tv::Detection d;
-  d.target_id(3);
-  d.label("person");
-  d.score(0.75F);
-  d.box(target.box());
-  detection.detections().push_back(d);
-  detections.write(detection);
+  detections.write(known_detection(range));
 
   // 14-bit counts and a colour gradient: pictures with content a codec can get wrong.
   cv::Mat counts(tv::INFRARED_HEIGHT, tv::INFRARED_WIDTH, CV_16UC1);
@@ -423,36 +435,9 @@ TEST_F(FoxgloveClient, Ros2BagDecodesToWhatWasPublishedAndItsMetadataMatchesTheM
 
   // 1'700'000'000.25 s since the epoch: the header stamp splits it into sec and nanosec.
   constexpr std::int64_t kCapture = 1'700'000'000'250'000'000;
-  tv::RangeArray range;
-  range.frame_seq(42);
-  range.capture_time_ns(kCapture);
-  tv::TargetRange target;
-  target.target_id(3);
-  target.label("person");
-  target.distance_m(12.5F);
-  target.sigma_m(0.5F);
-  target.x_m(1.5F);
-  target.y_m(0.25F);
-  target.z_m(12.25F);
-  target.box().x(100.0F);
-  target.box().y(200.0F);
-  target.box().width(30.0F);
-  target.box().height(80.0F);
-  target.point_count(77);
-  target.band(tv::BAND_INFRARED);
-  range.targets().push_back(target);
+  const tv::RangeArray range = known_range(kCapture);
   ranges.write(range);
-
-  tv::DetectionArray detection;
-  detection.frame_seq(42);
-  detection.capture_time_ns(kCapture);
-  tv::Detection d;
-  d.target_id(3);
-  d.label("person");
-  d.score(0.75F);
-  d.box(target.box());
-  detection.detections().push_back(d);
-  detections.write(detection);
+  detections.write(known_detection(range));
 
   cv::Mat colour(480, 640, CV_8UC3);
   for (int y = 0; y < colour.rows; ++y)
