@@ -22,6 +22,7 @@
 #include "thermovis/calib/chessboard.hpp"
 #include "thermovis/calib/stereo_calibration.hpp"
 #include "thermovis/camera/ocam_io.hpp"
+#include "thermovis/json/fields.hpp"
 #include "thermovis/runtime/rig_io.hpp"
 
 namespace {
@@ -92,7 +93,16 @@ nlohmann::json corners_json(const ViewSet& set) {
   return j;
 }
 
+// One point of a corners list: [x, y], or null for a corner not found.
+Eigen::Vector2d corner_point(const nlohmann::json& p, const std::string& where) {
+  if (p.is_null()) return Eigen::Vector2d::Constant(std::nan(""));
+  if (!p.is_array() || p.size() != 2 || !p[0].is_number() || !p[1].is_number())
+    throw thermovis::json::JsonInputError(where + ": must be [x, y] or null, got " + p.dump());
+  return {p[0].get<double>(), p[1].get<double>()};
+}
+
 ViewSet load_corners(const std::string& path, const tcal::BoardSpec& board) {
+  namespace tj = thermovis::json;
   std::ifstream in(path);
   if (!in) throw std::runtime_error("cannot open corners file " + path);
   nlohmann::json j;
@@ -101,24 +111,36 @@ ViewSet load_corners(const std::string& path, const tcal::BoardSpec& board) {
   } catch (const std::exception& e) {
     throw std::runtime_error(path + ": not valid JSON: " + e.what());
   }
+  tj::require_object(j, path);
   ViewSet set;
-  try {
-    set.image_size = {j.at("image_size").at(0).get<int>(), j.at("image_size").at(1).get<int>()};
-    for (const auto& v : j.at("views")) {
-      tcal::View view;
-      view.name = v.at("name").get<std::string>();
-      for (const auto& p : v.at("corners"))
-        view.corners.push_back(p.is_null()
-                                   ? Eigen::Vector2d::Constant(std::nan(""))
-                                   : Eigen::Vector2d(p.at(0).get<double>(), p.at(1).get<double>()));
-      if (static_cast<int>(view.corners.size()) != board.corner_count())
-        throw std::runtime_error("view " + view.name + " has " +
-                                 std::to_string(view.corners.size()) + " corners, the board " +
-                                 std::to_string(board.corner_count()));
-      set.views.push_back(std::move(view));
+  const auto size = j.find("image_size");
+  if (size == j.end() || !size->is_array() || size->size() != 2 ||
+      !(*size)[0].is_number_integer() || !(*size)[1].is_number_integer() ||
+      (*size)[0].get<int>() <= 0 || (*size)[1].get<int>() <= 0) {
+    throw tj::JsonInputError(path + ": field 'image_size' must be [width, height] in pixels, got " +
+                             (size == j.end() ? std::string("nothing") : size->dump()));
+  }
+  set.image_size = {(*size)[0].get<int>(), (*size)[1].get<int>()};
+  const auto views = j.find("views");
+  if (views == j.end() || !views->is_array())
+    throw tj::JsonInputError(path + ": field 'views' must be an array of views");
+  for (std::size_t i = 0; i < views->size(); ++i) {
+    const nlohmann::json& v = (*views)[i];
+    const std::string where = path + " view " + std::to_string(i);
+    tcal::View view;
+    view.name = tj::field<std::string>(v, "name", where);
+    const auto corners = v.find("corners");
+    if (corners == v.end() || !corners->is_array())
+      throw tj::JsonInputError(where + " (" + view.name + "): field 'corners' must be an array");
+    for (std::size_t k = 0; k < corners->size(); ++k) {
+      view.corners.push_back(
+          corner_point((*corners)[k], where + " (" + view.name + ") corner " + std::to_string(k)));
     }
-  } catch (const nlohmann::json::exception& e) {
-    throw std::runtime_error(path + ": " + e.what());
+    if (static_cast<int>(view.corners.size()) != board.corner_count())
+      throw tj::JsonInputError(where + " (" + view.name + ") has " +
+                               std::to_string(view.corners.size()) + " corners, the board " +
+                               std::to_string(board.corner_count()));
+    set.views.push_back(std::move(view));
   }
   set.total = static_cast<int>(set.views.size());
   return set;

@@ -95,6 +95,25 @@ TEST(CalibrateCli, BadInputFailsCleanly) {
     EXPECT_FALSE(fs::exists(yaml)) << c.args;
     EXPECT_FALSE(fs::exists(out / "calib_results.txt")) << c.args;
   }
+  // A corners file with a bad entry names the file, the view, the corner or field and the fault.
+  const std::pair<std::string, std::string> corner_files[] = {
+      {R"({"image_size": [640, 480], "views": [{"name": "a", "corners": [[1, 2], "x"]}]})",
+       "view 0 (a) corner 1: must be [x, y] or null"},
+      {R"({"image_size": [640], "views": []})", "field 'image_size' must be [width, height]"},
+      {R"({"image_size": [640, 480], "views": [{"corners": []}]})", "view 0: field 'name' missing"},
+      {R"({"image_size": [640, 480], "views": [{"name": "b", "corners": [[1, 2], null]}]})",
+       "view 0 (b) has 2 corners, the board 42"},
+      {R"({"image_size": [640, 480], "views": {"name": "c"}})", "field 'views' must be an array"},
+  };
+  for (const auto& [text, expected] : corner_files) {
+    std::ofstream(out / "bad_corners.json") << text;
+    const auto r = run("calibrate --corners " + (out / "bad_corners.json").string() +
+                       " --board 6x7 --square 30 --out " + yaml);
+    EXPECT_NE(r.exit_code, 0) << text;
+    EXPECT_NE(r.output.find("bad_corners.json"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find(expected), std::string::npos) << text << "\n" << r.output;
+    EXPECT_FALSE(fs::exists(yaml)) << text;
+  }
   // An unreadable image is named.
   std::ofstream(out / "broken.jpg") << "not an image";
   const auto r = run("calibrate --images " + (out / "broken.jpg").string() +
