@@ -161,6 +161,16 @@ TargetMatch MatchNode::target_match(const Detection& detection, pipeline::Band b
     point.right_y(static_cast<float>(c.right.y()));
     target.points().push_back(point);
   }
+  const match::RegionDisparity& q = result.region;
+  target.region().valid(q.ok());
+  if (q.ok()) {
+    target.region().anchor_x(static_cast<float>(q.anchor.x()));
+    target.region().anchor_y(static_cast<float>(q.anchor.y()));
+    target.region().disparity_px(static_cast<float>(q.disparity_px));
+    target.region().sigma_px(static_cast<float>(q.sigma_px));
+    target.region().contour_fraction(static_cast<float>(q.contour_fraction));
+    target.region().pixels(static_cast<std::uint32_t>(q.pixels));
+  }
   stats_.points += target.points().size();
   if (band == pipeline::Band::infrared) ++stats_.infrared_targets;
   return target;
@@ -175,7 +185,8 @@ void MatchNode::match_boxes(const DetectionArray& detections, const pipeline::Ma
                                   " of frame " + std::to_string(detections.frame_seq()) +
                                   ": box with no area or a non-finite field");
     }
-    for (pipeline::BandMatches& band : stage_.stage().match(images, box)) {
+    for (pipeline::BandMatches& band :
+         stage_.stage().match(images, box, detection.label().to_string())) {
       into.push_back(target_match(detection, band.band, std::move(band.result)));
     }
   }

@@ -28,6 +28,17 @@ pipeline::TargetEntry entry_of(const TargetMatch& target) {
     c.score = 1.0;
     entry.points.push_back(c);
   }
+  const RegionMatch& q = target.region();
+  if (q.valid()) {
+    entry.region.status = match::RegionStatus::ok;
+    entry.region.anchor = {q.anchor_x(), q.anchor_y()};
+    entry.region.disparity_px = q.disparity_px();
+    entry.region.sigma_px = q.sigma_px();
+    entry.region.contour_fraction = q.contour_fraction();
+    entry.region.pixels = static_cast<int>(q.pixels());
+  } else {
+    entry.region.message = "the match service gave no region alignment";
+  }
   return entry;
 }
 
@@ -62,6 +73,15 @@ std::vector<std::vector<const TargetMatch*>> checked_targets(const MatchArray& m
     }
     if (node::to_rect(target.box()).empty()) {
       throw std::invalid_argument(name + ": box with no area or a non-finite field");
+    }
+    const RegionMatch& q = target.region();
+    if (q.valid() && (!std::isfinite(q.anchor_x()) || !std::isfinite(q.anchor_y()) ||
+                      !std::isfinite(q.disparity_px()) || !(q.sigma_px() >= 0.0f) ||
+                      !std::isfinite(q.sigma_px()) || !(q.contour_fraction() >= 0.0f) ||
+                      !(q.contour_fraction() <= 1.0f))) {
+      throw std::invalid_argument(name +
+                                  ": region with a non-finite field, a negative sigma or a "
+                                  "contour fraction outside 0..1");
     }
   }
   return targets;
@@ -137,7 +157,7 @@ void RangeNode::answer(const MatchArray& matches) {
     t.y_m(static_cast<float>(r.position_m.y()));
     t.z_m(static_cast<float>(r.position_m.z()));
     t.box(shown->box());
-    t.point_count(static_cast<std::uint32_t>(r.range.points_used));
+    t.point_count(static_cast<std::uint32_t>(r.range.points_used + r.range.region_pixels));
     t.band(node::to_message(r.band));
     out.targets().push_back(t);
     ++stats_.ranged;

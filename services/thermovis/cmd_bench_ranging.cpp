@@ -1,6 +1,6 @@
 // thermovis bench ranging: the paper's Table 6 on the simulated rig. For each trial, one scene
-// holds a person at every requested distance (random bearing in its own sector so none hides
-// another, random clothing, illuminance and air temperature, fresh noise seed); each person's
+// holds a person at every requested distance (random bearing where no wall and no other person
+// hides it, random clothing, illuminance and air temperature, fresh noise seed); each person's
 // truth box (raw left image) is ranged in every mode and compared with the true distance of its
 // centre. Prints per distance and mode the mean and max absolute error beside the paper's.
 #include <algorithm>
@@ -11,6 +11,7 @@
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <numeric>
 #include <random>
 #include <sstream>
 #include <stdexcept>
@@ -37,6 +38,7 @@ struct Options {
   std::uint64_t seed = 1;
   bool json = false;
   bool points = false;
+  std::string estimate = "both";
   pl::GridOptions grid;
 };
 
@@ -102,6 +104,8 @@ std::vector<double> parse_distances(const std::string& text) {
 struct Cell {
   std::vector<double> errors;
   int within_sigma = 0, failures = 0;
+  int hidden = 0;  // the left eye's ray to the person's centre meets something else first
+  std::vector<std::string> why;  // each failure: the box's size, the true disparity and why
   double sigma_sum = 0;
   // --points: the kept points against the simulator's geometry (evaluation only).
   int points = 0, on_target = 0;
@@ -110,6 +114,35 @@ struct Cell {
   double centre_offset_sum = 0;               // true centre distance - true point distance, m
   std::vector<double> true_disparity_errors;  // the estimator on true disparities, m
 };
+
+// Whether the 2-D segments p-q and a-b cross.
+bool segments_cross(const Eigen::Vector2d& p, const Eigen::Vector2d& q, const Eigen::Vector2d& a,
+                    const Eigen::Vector2d& b) {
+  const auto side = [](const Eigen::Vector2d& o, const Eigen::Vector2d& u,
+                       const Eigen::Vector2d& v) {
+    const double c = (u - o).x() * (v - o).y() - (u - o).y() * (v - o).x();
+    return (c > 0) - (c < 0);
+  };
+  return side(p, q, a) * side(p, q, b) <= 0 && side(a, b, p) * side(a, b, q) <= 0;
+}
+
+// A person at `distance_m`, `bearing_deg` (the scene's convention: foot point at
+// (L sin b, L cos b) on the ground, from the reference camera) is in clear view when the sight
+// lines from both ends of a 0.5 m wide rig to both sides of the person (0.4 m either side of
+// the foot point, across the line of sight) cross no wall.
+bool in_clear_view(const sim::Scene& scene, double distance_m, double bearing_deg) {
+  const double b = bearing_deg * M_PI / 180.0;
+  const Eigen::Vector2d foot(distance_m * std::sin(b), distance_m * std::cos(b));
+  const Eigen::Vector2d across(std::cos(b), -std::sin(b));
+  for (const sim::Wall& wall : scene.walls) {
+    for (double eye : {-0.05, 0.45}) {
+      for (double side : {-0.4, 0.4}) {
+        if (segments_cross({eye, 0.0}, foot + side * across, wall.from, wall.to)) return false;
+      }
+    }
+  }
+  return true;
+}
 
 // --points: each kept point of a ranged target traced in the simulated scene: whether its left
 // pixel's ray meets the target, the true disparity there, and the range the same points would
@@ -170,6 +203,7 @@ int run_bench_ranging(const Options& opt) {
   pl::CapturePipelineOptions options;
   options.grid = opt.grid;
   options.match.match.method = thermovis::match::parse_method(opt.method);
+  options.range.estimate = pl::parse_range_estimate(opt.estimate);
   pl::CapturePipeline pipeline(rig, options);
   // The range stage's options for a person (what --points re-ranges with).
   rg::RangeOptions person;
@@ -185,22 +219,34 @@ int run_bench_ranging(const Options& opt) {
     sim::Scene scene = base;
     scene.name = "bench_ranging";
     scene.targets.clear();
-    // Bearings: one sector per distance over +-50 deg, in shuffled order.
-    const double half_field = 50.0, sector = 2 * half_field / static_cast<double>(distances.size());
+    // Bearings within +-50 deg, drawn so that every person is in clear view of both eyes: the
+    // sight lines from the rig to the person's sides cross no wall of the scene, and no person
+    // stands within 2 deg of another's silhouette (a nearer one would hide it).
     std::vector<size_t> order(distances.size());
     std::iota(order.begin(), order.end(), 0);
     std::shuffle(order.begin(), order.end(), rng);
-    for (size_t i = 0; i < distances.size(); ++i) {
+    std::vector<std::pair<double, double>> placed;  // bearing, half-width (deg)
+    for (size_t i : order) {
       sim::Target t;
       std::ostringstream id;
       id << "person_" << distances[i] << "m";
       t.id = id.str();
       t.cls = sim::TargetClass::person;
       t.distance_m = distances[i];
-      const double margin =
-          std::min(0.45 * sector, std::atan2(0.5, distances[i]) * 180 / M_PI + 1.0);
-      t.bearing_deg = -half_field + sector * (static_cast<double>(order[i]) + 0.5) +
-                      (unit(rng) - 0.5) * (sector - 2 * margin);
+      const double half_width = std::atan2(0.5, distances[i]) * 180 / M_PI;
+      bool found = false;
+      for (int attempt = 0; attempt < 2000 && !found; ++attempt) {
+        t.bearing_deg = (unit(rng) - 0.5) * 100.0;
+        found = in_clear_view(base, t.distance_m, t.bearing_deg);
+        for (const auto& [bearing, half] : placed) {
+          if (std::abs(bearing - t.bearing_deg) < half + half_width + 2.0) found = false;
+        }
+      }
+      if (!found) {
+        throw std::runtime_error("bench ranging: no bearing in clear view for a person at " +
+                                 std::to_string(distances[i]) + " m in the paper scene");
+      }
+      placed.emplace_back(t.bearing_deg, half_width);
       t.heading_deg = (unit(rng) - 0.5) * 60.0;
       t.texture = clothing[static_cast<size_t>(unit(rng) * 2.999)];
       scene.targets.push_back(t);
@@ -214,12 +260,21 @@ int run_bench_ranging(const Options& opt) {
     const pl::GridCapture capture =
         pipeline.rectify({frames[sim::Slot::visible_left], frames[sim::Slot::visible_right],
                           frames[sim::Slot::infrared_left], frames[sim::Slot::infrared_right]});
+    const Eigen::Isometry3d& T_ref_vl =
+        simulated.rig().camera(simulated.rig().visible.left).T_ref_cam;
     for (const sim::TargetTruth& truth : simulated.truth(0)) {
       const auto it = std::find_if(scene.targets.begin(), scene.targets.end(),
                                    [&](const sim::Target& t) { return t.id == truth.id; });
       const double nominal = it->distance_m;
+      const Eigen::Vector3d eye = T_ref_vl * Eigen::Vector3d::Zero();
+      const Eigen::Vector3d to_centre = T_ref_vl * truth.position_m - eye;
+      const bool hidden = simulated.trace(eye, to_centre.normalized(), 0).target_id != truth.id;
       for (Mode mode : modes) {
         Cell& cell = cells[{nominal, mode}];
+        if (hidden) {
+          ++cell.hidden;
+          continue;
+        }
         // The box as the pipeline has it: on the visible image for the visible pair, on the
         // infrared one (where the detector finds people) for the infrared pair and for both.
         // The silhouette's box on the grid (what the pipeline's detector finds), on the
@@ -234,6 +289,18 @@ int run_bench_ranging(const Options& opt) {
         const pl::CaptureTarget r = pipeline.range(capture, box, "person", band_choice(mode));
         if (!r.ranged.ok()) {
           ++cell.failures;
+          const auto g = pipeline.geometry().ranging(mode == Mode::infrared ? pl::Band::infrared
+                                                                            : pl::Band::visible);
+          Eigen::Vector2d px;
+          double true_disparity = 0;
+          rg::project_point(g.grid, g.baseline_m,
+                            g.T_ref_left_rect.inverse() * (T_ref_vl * truth.position_m), px,
+                            true_disparity);
+          std::ostringstream why;
+          why << "box " << box.width << "x" << box.height << " px at (" << box.x << ", " << box.y
+              << "), true disparity " << std::fixed << std::setprecision(2) << true_disparity
+              << " px: " << r.ranged.range.message;
+          cell.why.push_back(why.str());
           continue;
         }
         // From the left visible camera's centre, as the truth.
@@ -279,6 +346,8 @@ int run_bench_ranging(const Options& opt) {
           {"trials", opt.trials},
           {"ranged", n},
           {"failures", c.failures},
+          {"hidden", c.hidden},
+          {"why_not_ranged", c.why},
           {"mean_abs_error_m", n ? nlohmann::json(mean_abs / n) : nlohmann::json()},
           {"mean_signed_error_m", n ? nlohmann::json(mean_signed / n) : nlohmann::json()},
           {"max_abs_error_m", n ? nlohmann::json(max_abs) : nlohmann::json()},
@@ -339,6 +408,15 @@ int run_bench_ranging(const Options& opt) {
               << num(r["within_1_sigma"], 2) << std::setw(9) << num(r["paper_abs_error_m"], 2)
               << std::setw(11) << num(r["eq2_error_at_0.1px_m"], 3) << "\n";
   }
+  bool any_failure = false;
+  for (const auto& r : rows) {
+    for (const auto& why : r["why_not_ranged"]) {
+      if (!any_failure) std::cout << "\nNot ranged:\n";
+      any_failure = true;
+      std::cout << "  " << r["distance_m"].get<double>() << " m " << r["mode"].get<std::string>()
+                << ": " << why.get<std::string>() << "\n";
+    }
+  }
   if (opt.points) {
     std::cout << "\nKept points against the scene's geometry: points per target, fraction whose "
                  "pixel ray meets the target, their disparity error (mean, sd, px), off-target "
@@ -388,6 +466,9 @@ THERMOVIS_COMMAND(
                    "also trace every kept point in the simulated scene (evaluation only): "
                    "on-target fraction, disparity error against the true geometry (visible "
                    "and infrared; fused combines those two pairs' ranges)");
+      app.add_option("--estimate", opt->estimate,
+                     "what each pair's range rests on: points | region | both")
+          ->capture_default_str();
       thermovis::runtime::add_grid_options(app, opt->grid);
       return [opt] { return run_bench_ranging(*opt); };
     });

@@ -120,9 +120,10 @@ int run_bench_stages(const Options& opt) {
     const auto truths = simulated.truth(frame);
     for (const auto& d : found) {
       std::vector<pl::BandMatches> bands;
-      timed("match", [&] { bands = pipeline.match_stage(band).match(images, d.box); });
+      timed("match", [&] { bands = pipeline.match_stage(band).match(images, d.box, d.cls); });
       std::vector<pl::TargetEntry> entries;
-      for (const auto& b : bands) entries.push_back({b.band, d.cls, d.box, b.result.matches});
+      for (const auto& b : bands)
+        entries.push_back({b.band, d.cls, d.box, b.result.matches, b.result.region});
       if (entries.empty()) continue;
       pl::RangedTarget r;
       timed("range", [&] { r = pipeline.range_stage().range(entries); });

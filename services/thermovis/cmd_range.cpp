@@ -206,7 +206,21 @@ int run_range(const Options& opt) {
                        {"points_used", r.points_used},
                        {"points_valid", r.points_valid},
                        {"matches", r.points_total},
-                       {"keypoints", keypoints}};
+                       {"keypoints", keypoints},
+                       {"region_pixels", r.region_pixels}};
+    // Each pair's whole-region alignment (thermovis::match::align_region).
+    nlohmann::json regions;
+    for (const pl::BandMatches& m : t.matches) {
+      const thermovis::match::RegionDisparity& q = m.result.region;
+      regions[pl::band_name(m.band)] = {{"status", thermovis::match::region_status_name(q.status)},
+                                        {"message", q.message},
+                                        {"disparity_px", number(q.disparity_px)},
+                                        {"sigma_px", number(q.sigma_px)},
+                                        {"zncc", q.zncc},
+                                        {"contour_fraction", number(q.contour_fraction)},
+                                        {"pixels", q.pixels}};
+    }
+    out["regions"] = regions;
     if (t.each_band.size() > 1) {
       // Each pair's own range, as combined into the target's.
       nlohmann::json bands;

@@ -75,10 +75,10 @@ CaptureTarget CapturePipeline::range(const GridCapture& capture, const cv::Rect&
   MatchImages images{capture.grey_left, capture.grey_right, capture.infrared_left,
                      capture.infrared_right};
   CaptureTarget out;
-  out.matches = match_stage(band).match(images, box);
+  out.matches = match_stage(band).match(images, box, label);
   std::vector<TargetEntry> entries;
   for (const BandMatches& m : out.matches)
-    entries.push_back({m.band, label, box, m.result.matches});
+    entries.push_back({m.band, label, box, m.result.matches, m.result.region});
   if (entries.empty()) {
     out.ranged.range.message = "no pair to match on";
     return out;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
@@ -48,6 +49,17 @@ void check_pair(const cv::Mat& left, const cv::Mat& right, cv::Size grid, int ty
   }
 }
 
+// The median disparity of the points, NaN for fewer than 3.
+double median_disparity(const match::MatchResult& result) {
+  if (result.matches.size() < 3) return std::numeric_limits<double>::quiet_NaN();
+  std::vector<double> d;
+  d.reserve(result.matches.size());
+  for (const auto& c : result.matches) d.push_back(c.disparity_px);
+  auto mid = d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2);
+  std::nth_element(d.begin(), mid, d.end());
+  return *mid;
+}
+
 }  // namespace
 
 BandChoice parse_band_choice(const std::string& name) {
@@ -59,10 +71,48 @@ BandChoice parse_band_choice(const std::string& name) {
   throw std::invalid_argument("unknown band '" + name + "' (visible, infrared, fused, auto, both)");
 }
 
+std::pair<double, double> typical_height_m(const std::string& label) {
+  if (label == "person") return {1.0, 2.1};
+  return {0.0, 0.0};
+}
+
 MatchStage::MatchStage(const PipelineGeometry& geometry, const MatchStageOptions& options)
-    : grid_size_(geometry.grid_size()), options_(options) {
+    : grid_size_(geometry.grid_size()),
+      baseline_visible_m_(geometry.ranging(Band::visible).baseline_m),
+      baseline_infrared_m_(geometry.ranging(Band::infrared).baseline_m),
+      options_(options) {
+  // A right eye at (Bx, By, Bz) of the left rectified frame sees a point of depth Z
+  // -f By / Z rows from the left eye's row, at disparity f Bx / Z: -By / Bx rows per px.
+  const Eigen::Vector3d c = geometry.ranging(Band::infrared).right_centre_m;
+  if (c.x() > 0) infrared_rows_per_disparity_ = -c.y() / c.x();
   options_.match.min_disparity_px = 0.0;
   options_.match.max_disparity_px = max_disparity(geometry, options.min_distance_m);
+  options_.region_options.min_disparity_px = options_.match.min_disparity_px;
+  options_.region_options.max_disparity_px = options_.match.max_disparity_px;
+}
+
+void MatchStage::align(Band band, const cv::Mat& left8, const cv::Mat& right8, const cv::Rect& box,
+                       const cv::Mat& silhouette, std::pair<double, double> height_m,
+                       match::MatchResult& result) const {
+  if (!options_.region) return;
+  match::RegionOptions o = options_.region_options;
+  if (band == Band::infrared) o.row_offset_per_disparity = infrared_rows_per_disparity_;
+  const double start = median_disparity(result);
+  if (result.ransac_inliers >= 3 && std::isfinite(start)) {
+    // The points' row model already holds the offset at their disparity.
+    o.row_offset_px = result.row_offset_px - o.row_offset_per_disparity * start;
+  }
+  if (!std::isfinite(start) && height_m.first > 0) {
+    // The box's height h (px) of a target H m tall puts it at about f H / h, where the pair's
+    // disparity is at most B h / H (less off the grid's centre: cos of the bearing). Bounds
+    // widened for a box cut short (a target partly hidden) and for bearings up to 60 deg.
+    const double B = band == Band::infrared ? baseline_infrared_m_ : baseline_visible_m_;
+    const double h = box.height;
+    o.min_disparity_px = std::max(o.min_disparity_px, 0.5 * B * h / height_m.second - 1.0);
+    o.max_disparity_px = std::min(o.max_disparity_px, 1.3 * B * h / height_m.first + 1.0);
+    if (o.max_disparity_px < o.min_disparity_px) o.max_disparity_px = o.min_disparity_px;
+  }
+  result.region = match::align_region(left8, right8, box, silhouette, start, o);
 }
 
 Band MatchStage::primary_band() const {
@@ -94,10 +144,16 @@ cv::Mat MatchStage::stage_grey(const cv::Mat& image) {
 }
 
 match::MatchResult MatchStage::match_on(Band band, const cv::Mat& left, const cv::Mat& right,
-                                        const cv::Rect& box) const {
+                                        const cv::Rect& box, const cv::Mat& silhouette,
+                                        std::pair<double, double> height_m) const {
+  if (!silhouette.empty() && (silhouette.type() != CV_8UC1 || silhouette.size() != box.size())) {
+    throw std::invalid_argument("match: the silhouette must be an 8-bit mask of the box's size");
+  }
   if (band != Band::infrared) {
     check_pair(left, right, grid_size_, CV_8UC1, band == Band::fused ? "fused" : "visible");
-    return match::match_box(left, right, box, options_.match);
+    match::MatchResult result = match::match_box(left, right, box, options_.match);
+    align(band, left, right, box, silhouette, height_m, result);
+    return result;
   }
   check_pair(left, right, grid_size_, CV_16UC1, "infrared");
   // The box's search region (the same in both eyes, so disparities are kept) stretched to 8
@@ -111,39 +167,49 @@ match::MatchResult MatchStage::match_on(Band band, const cv::Mat& left, const cv
   cv::Mat left8, right8;
   stretch_counts(left(region), right(region), left8, right8);
   match::MatchResult result = match::match_box(left8, right8, box - region.tl(), options_.match);
+  align(band, left8, right8, box - region.tl(), silhouette, height_m, result);
   const Eigen::Vector2d offset(region.x, region.y);
   for (auto& c : result.matches) {
     c.left += offset;
     c.right += offset;
   }
   result.box += region.tl();
+  result.region.anchor += offset;
   return result;
 }
 
-std::vector<BandMatches> MatchStage::match(const MatchImages& images, const cv::Rect& box) const {
+std::vector<BandMatches> MatchStage::match(const MatchImages& images, const cv::Rect& box,
+                                           const std::string& label) const {
+  const std::pair<double, double> height = typical_height_m(label);
   const bool has_primary = uses_primary() && !images.primary_left.empty();
   const bool has_infrared = uses_infrared() && !images.infrared_left.empty();
+  // The target's silhouette from the infrared image of the grid, for both pairs' regions.
+  cv::Mat silhouette;
+  if (options_.region && !images.infrared_left.empty() &&
+      images.infrared_left.size() == grid_size_) {
+    silhouette = match::target_silhouette(images.infrared_left, box);
+  }
   std::vector<BandMatches> out;
   if (options_.band == BandChoice::infrared) {
     if (has_infrared) {
-      out.push_back({Band::infrared,
-                     match_on(Band::infrared, images.infrared_left, images.infrared_right, box)});
+      out.push_back({Band::infrared, match_on(Band::infrared, images.infrared_left,
+                                              images.infrared_right, box, silhouette, height)});
     }
     return out;
   }
   if (has_primary) {
-    out.push_back(
-        {primary_band(), match_on(primary_band(), images.primary_left, images.primary_right, box)});
+    out.push_back({primary_band(), match_on(primary_band(), images.primary_left,
+                                            images.primary_right, box, silhouette, height)});
   }
   if (!has_infrared) return out;
   if (options_.band == BandChoice::both) {
-    out.push_back({Band::infrared,
-                   match_on(Band::infrared, images.infrared_left, images.infrared_right, box)});
+    out.push_back({Band::infrared, match_on(Band::infrared, images.infrared_left,
+                                            images.infrared_right, box, silhouette, height)});
   } else if (options_.band == BandChoice::automatic &&
              (out.empty() ||
               static_cast<int>(out.front().result.matches.size()) < options_.min_visible_points)) {
-    BandMatches infrared{
-        Band::infrared, match_on(Band::infrared, images.infrared_left, images.infrared_right, box)};
+    BandMatches infrared{Band::infrared, match_on(Band::infrared, images.infrared_left,
+                                                  images.infrared_right, box, silhouette, height)};
     if (out.empty() || infrared.result.matches.size() > out.front().result.matches.size()) {
       out.assign(1, std::move(infrared));
     }

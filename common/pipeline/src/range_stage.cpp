@@ -5,6 +5,13 @@
 
 namespace thermovis::pipeline {
 
+RangeEstimate parse_range_estimate(const std::string& name) {
+  if (name == "points") return RangeEstimate::points;
+  if (name == "region") return RangeEstimate::region;
+  if (name == "both") return RangeEstimate::both;
+  throw std::invalid_argument("unknown range estimate '" + name + "' (points, region, both)");
+}
+
 RangeStage::RangeStage(const PipelineGeometry& geometry, const RangeStageOptions& options)
     : visible_(geometry.ranging(Band::visible)),
       infrared_(geometry.ranging(Band::infrared)),
@@ -16,11 +23,26 @@ range::TargetRange RangeStage::range_entry(const TargetEntry& entry, double& sha
   range::RangeOptions options = options_.range;
   if (!options_.surface) options.shape = range::TargetShape::for_class(entry.label);
   shared_sigma_m = options.shape.empty() ? 0.0 : options.shape_sigma_m;
-  range::TargetRange r = range::range_target(geometry, entry.box, entry.points, options);
-  if (!options_.surface && options.shape.empty()) {
-    range::move_to_centre(r, geometry, range::surface_to_centre_m(entry.label));
+  const double to_centre = options_.surface ? 0.0 : range::surface_to_centre_m(entry.label);
+  range::TargetRange points;
+  if (options_.estimate != RangeEstimate::region) {
+    points = range::range_target(geometry, entry.box, entry.points, options);
+    if (!options_.surface && options.shape.empty())
+      range::move_to_centre(points, geometry, to_centre);
+    if (options_.estimate == RangeEstimate::points) return points;
   }
-  return r;
+  range::TargetRange region =
+      range::range_region(geometry, entry.box, entry.region, to_centre, options);
+  if (options_.estimate == RangeEstimate::region) return region;
+  // The points and the region see the same pixels: their shared error is at least the
+  // systematic floor and the shape's, kept whole by the combination.
+  double shared_in_pair = shared_sigma_m;
+  if (region.status == range::RangeStatus::ok && region.disparity_sigma_px > 0) {
+    const double per_px = region.sigma_m / region.disparity_sigma_px;
+    const double floor_m = options.systematic_disparity_px * per_px;
+    shared_in_pair = std::sqrt(shared_in_pair * shared_in_pair + floor_m * floor_m);
+  }
+  return range::combine_ranges(points, region, geometry, shared_in_pair);
 }
 
 RangedTarget RangeStage::range(const std::vector<TargetEntry>& entries) const {

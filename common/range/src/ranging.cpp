@@ -136,6 +136,8 @@ std::string status_name(RangeStatus status) {
       return "no_matches";
     case RangeStatus::too_few_points:
       return "too_few_points";
+    case RangeStatus::no_region:
+      return "no_region";
   }
   return "unknown";
 }
@@ -451,6 +453,46 @@ TargetRange range_target(const RangingGeometry& geometry, const cv::Rect& box,
   return r;
 }
 
+TargetRange range_region(const RangingGeometry& geometry, const cv::Rect& box,
+                         const match::RegionDisparity& region, double surface_to_centre_m,
+                         const RangeOptions& options) {
+  TargetRange r;
+  const cv::Size size = geometry.grid.image_size();
+  const int m = options.edge_margin_px;
+  r.at_image_edge =
+      box.x < m || box.y < m || box.br().x > size.width - m || box.br().y > size.height - m;
+  if (!region.ok()) {
+    return fail(
+        r, RangeStatus::no_region,
+        "whole-region alignment: " +
+            (region.message.empty() ? match::region_status_name(region.status) : region.message));
+  }
+  const PointTriangulation t = triangulate(geometry, region.anchor, region.disparity_px);
+  if (!t.valid) {
+    return fail(r, RangeStatus::no_region,
+                "whole-region alignment: disparity " + std::to_string(region.disparity_px) +
+                    " px at the anchor does not triangulate");
+  }
+  r.region_pixels = region.pixels;
+  const double inside_share = std::isfinite(region.contour_fraction)
+                                  ? std::clamp(1.0 - region.contour_fraction, 0.0, 1.0)
+                                  : 0.5;
+  const double offset = surface_to_centre_m * inside_share;
+  Eigen::Vector3d position = t.position_left_rect;
+  position *= (t.distance_m + offset) / t.distance_m;
+  r.distance_m = position.norm();
+  r.depth_m = position.z();
+  r.disparity_px = region.disparity_px;
+  r.position_m = geometry.T_ref_left_rect * position;
+  const double px2 = region.sigma_px * region.sigma_px +
+                     options.systematic_disparity_px * options.systematic_disparity_px;
+  r.sigma_m = std::sqrt(px2 * t.distance_per_px * t.distance_per_px +
+                        options.region_model_sigma_m * options.region_model_sigma_m);
+  r.disparity_sigma_px = t.distance_per_px > 0 ? r.sigma_m / t.distance_per_px : TargetRange::nan;
+  r.status = RangeStatus::ok;
+  return r;
+}
+
 double surface_to_centre_m(const std::string& target_class) {
   if (target_class == "person") return 0.15 * M_PI / 4;
   if (target_class == "pole") return 0.10 * M_PI / 4;
@@ -503,6 +545,7 @@ TargetRange combine_ranges(const TargetRange& a, const TargetRange& b,
     r.points_total = a.points_total + b.points_total;
     r.points_valid = a.points_valid + b.points_valid;
     r.points_used = a.points_used + b.points_used;
+    r.region_pixels = a.region_pixels + b.region_pixels;
     r.at_image_edge = a.at_image_edge && b.at_image_edge;
   }
   r.used.clear();

@@ -107,8 +107,10 @@ TEST(RangeStage, CombinesTwoPairsAndRefusesTwoEntriesOfOne) {
   const auto both = stage(pl::BandChoice::both).match(pairs.images(), kBox);
   ASSERT_EQ(both.size(), 2u);
   const pl::RangeStage ranger(geometry());
-  const pl::TargetEntry visible{pl::Band::visible, "wall", kBox, both[0].result.matches};
-  const pl::TargetEntry infrared{pl::Band::infrared, "wall", kBox, both[1].result.matches};
+  const pl::TargetEntry visible{pl::Band::visible, "wall", kBox, both[0].result.matches,
+                                both[0].result.region};
+  const pl::TargetEntry infrared{pl::Band::infrared, "wall", kBox, both[1].result.matches,
+                                 both[1].result.region};
   const pl::RangedTarget v = ranger.range({visible});
   const pl::RangedTarget i = ranger.range({infrared});
   const pl::RangedTarget f = ranger.range({visible, infrared});
@@ -121,9 +123,49 @@ TEST(RangeStage, CombinesTwoPairsAndRefusesTwoEntriesOfOne) {
   EXPECT_THROW(ranger.range({visible, visible}), std::invalid_argument);
   EXPECT_THROW(ranger.range({}), std::invalid_argument);
   // No points: a status, never a number.
-  const pl::RangedTarget none = ranger.range({{pl::Band::visible, "person", kBox, {}}});
+  const pl::RangedTarget none = ranger.range({{pl::Band::visible, "person", kBox, {}, {}}});
   EXPECT_FALSE(none.ok());
   EXPECT_FALSE(none.range.message.empty());
+}
+
+TEST(MatchStage, AlignsEachBoxsWholeRegionOnEveryPair) {
+  const Pairs pairs(12);
+  const auto both = stage(pl::BandChoice::both).match(pairs.images(), kBox);
+  ASSERT_EQ(both.size(), 2u);
+  for (const auto& band : both) {
+    const auto& region = band.result.region;
+    ASSERT_TRUE(region.ok()) << pl::band_name(band.band) << ": " << region.message;
+    EXPECT_NEAR(region.disparity_px, 12.0, 0.02) << pl::band_name(band.band);
+    // On the whole box (the texture does not split into a silhouette), in grid pixels.
+    EXPECT_TRUE(kBox.contains(
+        cv::Point(static_cast<int>(region.anchor.x()), static_cast<int>(region.anchor.y()))));
+  }
+  // A flat visible pair has no region; the infrared one still has.
+  const auto flat = stage(pl::BandChoice::both).match(pairs.images(true), kBox);
+  ASSERT_EQ(flat.size(), 2u);
+  EXPECT_EQ(flat[0].result.region.status, thermovis::match::RegionStatus::flat);
+  EXPECT_TRUE(flat[1].result.region.ok());
+  // The range stage ranges a box from its region alone, from its points alone, or both.
+  for (auto estimate :
+       {pl::RangeEstimate::points, pl::RangeEstimate::region, pl::RangeEstimate::both}) {
+    pl::RangeStageOptions o;
+    o.estimate = estimate;
+    const pl::RangedTarget r = pl::RangeStage(geometry(), o)
+                                   .range({{pl::Band::visible, "wall", kBox, both[0].result.matches,
+                                            both[0].result.region}});
+    ASSERT_TRUE(r.ok()) << r.range.message;
+    EXPECT_EQ(r.range.region_pixels > 0, estimate != pl::RangeEstimate::points);
+    EXPECT_EQ(r.range.points_used > 0, estimate != pl::RangeEstimate::region);
+  }
+  // Region only, without a region: a status naming it.
+  pl::RangeStageOptions region_only;
+  region_only.estimate = pl::RangeEstimate::region;
+  const pl::RangedTarget none = pl::RangeStage(geometry(), region_only)
+                                    .range({{pl::Band::visible, "wall", kBox,
+                                             both[0].result.matches, flat[0].result.region}});
+  EXPECT_EQ(none.range.status, thermovis::range::RangeStatus::no_region);
+  EXPECT_NE(none.range.message.find("flat"), std::string::npos) << none.range.message;
+  EXPECT_THROW(pl::parse_range_estimate("corners"), std::invalid_argument);
 }
 
 TEST(DetectStage, FindsAWarmPersonAndRefusesColour) {

@@ -329,3 +329,47 @@ TEST(CombineRanges, WeighsEachPairByItsOwnUncertainty) {
   EXPECT_NE(c.message.find("Eq. 34"), std::string::npos);
   EXPECT_NE(c.message.find("no correspondence"), std::string::npos);
 }
+
+TEST(RangeRegion, TheAnchorAtTheRegionsDisparityMovedByTheInsidesShare) {
+  const rg::RangingGeometry g{visible_grid(), kBaseline, Eigen::Isometry3d::Identity()};
+  const Eigen::Vector3d p = at_bearing(40.0, 0.2, 0.01);
+  Eigen::Vector2d px;
+  double d = 0;
+  ASSERT_TRUE(rg::project_point(g.grid, kBaseline, p, px, d));
+  thermovis::match::RegionDisparity region;
+  region.status = thermovis::match::RegionStatus::ok;
+  region.anchor = px;
+  region.disparity_px = d;
+  region.sigma_px = 0.02;
+  region.pixels = 150;
+  const cv::Rect box(static_cast<int>(px.x()) - 5, static_cast<int>(px.y()) - 20, 10, 40);
+  rg::RangeOptions o;
+  // All outline: the region is ranged where the outline is, not moved.
+  region.contour_fraction = 1.0;
+  rg::TargetRange r = rg::range_region(g, box, region, 0.12, o);
+  ASSERT_EQ(r.status, rg::RangeStatus::ok) << r.message;
+  EXPECT_NEAR(r.distance_m, 40.0, 1e-6);
+  EXPECT_EQ(r.region_pixels, 150);
+  EXPECT_NEAR((r.position_m - p).norm(), 0.0, 1e-6);
+  // Half of it from the inside (the visible surface): half of the surface-to-centre offset.
+  region.contour_fraction = 0.5;
+  r = rg::range_region(g, box, region, 0.12, o);
+  EXPECT_NEAR(r.distance_m, 40.06, 1e-6);
+  // Sigma: Eq. 2 of the region's sigma and the floor, and the model's own error.
+  const rg::PointTriangulation t = rg::triangulate(g.grid, kBaseline, px, d);
+  const double px_sigma = std::hypot(0.02, o.systematic_disparity_px);
+  EXPECT_NEAR(r.sigma_m, std::hypot(px_sigma * t.distance_per_px, o.region_model_sigma_m), 1e-9);
+  // No alignment: a status that carries its reason, no number.
+  region.status = thermovis::match::RegionStatus::flat;
+  region.message = "the region is flat";
+  r = rg::range_region(g, box, region, 0.12, o);
+  EXPECT_EQ(r.status, rg::RangeStatus::no_region);
+  EXPECT_NE(r.message.find("flat"), std::string::npos) << r.message;
+  EXPECT_FALSE(std::isfinite(r.distance_m));
+  // A disparity that does not triangulate (at or beyond infinity).
+  region.status = thermovis::match::RegionStatus::ok;
+  region.disparity_px = -0.5;
+  r = rg::range_region(g, box, region, 0.12, o);
+  EXPECT_EQ(r.status, rg::RangeStatus::no_region);
+  EXPECT_FALSE(std::isfinite(r.distance_m));
+}

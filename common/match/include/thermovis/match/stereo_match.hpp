@@ -25,6 +25,8 @@
 #include <string>
 #include <vector>
 
+#include "thermovis/match/region_align.hpp"
+
 namespace thermovis::match {
 
 enum class Method { orb, akaze, sift, ncc, sgbm };
@@ -74,6 +76,9 @@ struct MatchResult {
   double row_offset_px =
       0.0;  // RANSAC row model: yR - yL = row_offset + row_slope * (xL - box centre)
   double row_slope = 0.0;
+  // The whole box's (or its silhouette's) alignment, when the caller asked for it
+  // (pipeline::MatchStage does): status empty_region otherwise.
+  RegionDisparity region;
 };
 
 // Matches inside `box` (left image) against the right image. Throws std::invalid_argument for

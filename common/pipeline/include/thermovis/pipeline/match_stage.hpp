@@ -16,6 +16,7 @@
 //    biased by up to their difference (6 %); kept for comparison.
 #include <opencv2/core/mat.hpp>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "thermovis/match/stereo_match.hpp"
@@ -34,6 +35,13 @@ struct MatchStageOptions {
   // min_distance_m.
   match::MatchOptions match;
   double min_distance_m = 2.5;  // nearest target searched (sets the largest disparity)
+  // The whole-target alignment of every box on every pair (match::align_region), in
+  // MatchResult::region: the target's silhouette in the infrared image of the grid (the warm
+  // body, match::target_silhouette) as its mask on both pairs, the whole box where there is no
+  // infrared image or the box does not split; started from the points' median disparity when
+  // there are at least 3, else searched over the whole range.
+  bool region = true;
+  match::RegionOptions region_options;  // its disparity range is set like the points'
 };
 
 // One capture's pairs on the grid, as the stage reads them. primary: the visible or fused pair,
@@ -48,6 +56,11 @@ struct BandMatches {
   Band band = Band::visible;
   match::MatchResult result;
 };
+
+// The range of heights of an upright target of a class, m, that bounds its distance from its
+// box's height (person 1.0-2.1 m: a child to a tall adult, standing); {0, 0} for classes without
+// one.
+std::pair<double, double> typical_height_m(const std::string& label);
 
 class MatchStage {
  public:
@@ -65,13 +78,26 @@ class MatchStage {
   // The matches of one box (left image of the grid) on every pair the choice asks for that is
   // present: one entry, or two (the primary pair's first) for `both`. Throws
   // std::invalid_argument for images of the wrong size or type.
-  std::vector<BandMatches> match(const MatchImages& images, const cv::Rect& box) const;
+  // `label` (the detection's class) bounds a region's disparity search by the class's size
+  // where no points start it (typical_height_m).
+  std::vector<BandMatches> match(const MatchImages& images, const cv::Rect& box,
+                                 const std::string& label = "") const;
   // One pair: `left`/`right` grey for visible and fused, counts for infrared.
+  // `silhouette`: the region's mask (box-sized CV_8UC1, empty: the whole box).
+  // `height_m`: the class's height range (typical_height_m), {0, 0} for none.
   match::MatchResult match_on(Band band, const cv::Mat& left, const cv::Mat& right,
-                              const cv::Rect& box) const;
+                              const cv::Rect& box, const cv::Mat& silhouette = cv::Mat(),
+                              std::pair<double, double> height_m = {0, 0}) const;
 
  private:
+  // The whole-region alignment of `box` into result.region (with MatchStageOptions::region).
+  void align(Band band, const cv::Mat& left8, const cv::Mat& right8, const cv::Rect& box,
+             const cv::Mat& silhouette, std::pair<double, double> height_m,
+             match::MatchResult& result) const;
+
   cv::Size grid_size_;
+  double baseline_visible_m_ = 0, baseline_infrared_m_ = 0;
+  double infrared_rows_per_disparity_ = 0;  // the infrared pair's epipolar slope on the grid
   MatchStageOptions options_;
 };
 

@@ -17,11 +17,19 @@
 
 namespace thermovis::pipeline {
 
+// What one pair's range of a target rests on: its point correspondences (Eq. 34 over the
+// points), its whole-region alignment (range::range_region), or both combined by their
+// uncertainties (the default).
+enum class RangeEstimate { points, region, both };
+// "points" | "region" | "both"; std::invalid_argument otherwise.
+RangeEstimate parse_range_estimate(const std::string& name);
+
 struct RangeStageOptions {
   // contour_reach_px must be the patch radius the points were matched with (its default is the
   // matcher's default).
   range::RangeOptions range;
   bool surface = false;  // report the distance of the visible surface, not the target's centre
+  RangeEstimate estimate = RangeEstimate::both;
 };
 
 // One pair's measurement of a target: the box it was matched in (left image of the grid) and
@@ -31,6 +39,7 @@ struct TargetEntry {
   std::string label;  // the class: it chooses the shape
   cv::Rect box;
   std::vector<match::Correspondence> points;
+  match::RegionDisparity region;  // the whole-region alignment (status empty_region: none)
 };
 
 struct RangedTarget {

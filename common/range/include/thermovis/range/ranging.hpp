@@ -33,6 +33,7 @@
 #include <vector>
 
 #include "thermovis/camera/rectified.hpp"
+#include "thermovis/match/region_align.hpp"
 #include "thermovis/match/stereo_match.hpp"
 
 namespace thermovis::range {
@@ -98,6 +99,7 @@ enum class RangeStatus {
                          // or the correlation patch cannot see the target there)
   no_matches,            // no correspondence in the box
   too_few_points,        // fewer than min_points valid points after the rejection
+  no_region,             // the whole-region alignment gave no disparity (its message says why)
 };
 std::string status_name(RangeStatus status);
 
@@ -148,6 +150,12 @@ struct RangeOptions {
   // model), m; added to the uncertainty when a shape is used. On the simulated people (the
   // model's own shape, any heading) the fused error at 5-10 m is 0.01-0.02 m in all.
   double shape_sigma_m = 0.015;
+  // One-sigma error of a whole-region range's model (range_region), m: one translation for the
+  // whole target ignores its depth (a person's 0.3 m spread the region's disparity by 1.7 px at
+  // 5 m on the pipeline grid), and the mix of outline and inside is only estimated. On the
+  // simulated people the region's range is 0.05-0.07 m too far at 5 m and within 0.03 m at
+  // 10-20 m (`thermovis bench ranging --estimate region`).
+  double region_model_sigma_m = 0.05;
 };
 
 struct TargetRange {
@@ -163,6 +171,7 @@ struct TargetRange {
   int points_total = 0;                                         // correspondences given
   int points_valid = 0;                                         // of which triangulated
   int points_used = 0;                                          // kept by Eq. 34
+  int region_pixels = 0;  // pixels of a whole-region alignment the range rests on (0: none)
   std::vector<int> used;  // indices (into the matches given) of the points kept
   bool at_image_edge = false;
 };
@@ -174,6 +183,19 @@ TargetRange range_target(const RangingGeometry& geometry, const cv::Rect& box,
                          const std::vector<match::Correspondence>& matches,
                          const RangeOptions& options = {});
 
+// Ranges one target from its whole-region disparity (match::align_region): the region's anchor
+// pixel triangulated at the region's disparity. The region's alignment follows its strongest
+// gradients: the outline, where the silhouette is at the depth of the target's axis, and the
+// inside's texture, on the visible surface. So the range is moved `surface_to_centre_m` (the
+// class's surface-to-centre offset, surface_to_centre_m) times the inside's share of the
+// alignment (1 - contour_fraction) further along the line of sight. Uncertainty: the region's
+// own sigma and options.systematic_disparity_px in quadrature, scaled by Eq. 2, and
+// options.region_model_sigma_m. Never throws on bad data: a region without
+// a disparity gives RangeStatus::no_region with its message.
+TargetRange range_region(const RangingGeometry& geometry, const cv::Rect& box,
+                         const match::RegionDisparity& region, double surface_to_centre_m,
+                         const RangeOptions& options = {});
+
 // The largest disparity a target at min_distance_m or further can have on the grid (the matcher's
 // search range), with 2 px of margin.
 double max_disparity_for(const RangingGeometry& geometry, double min_distance_m);
@@ -182,9 +204,10 @@ double max_disparity_for(const RangingGeometry& geometry, double min_distance_m)
 // (to the target's centre); does nothing to a range without a distance.
 void move_to_centre(TargetRange& range, const RangingGeometry& geometry, double offset_m);
 
-// Two independent ranges of one target (the visible and the infrared pair: other cameras, other
-// noise) combined by inverse variance. `shared_sigma_m` is the part of both uncertainties that
-// is one error, not two (the target shape's centre: the same person), so it is taken out before
+// Two ranges of one target (the visible and the infrared pair: other cameras, other noise; or
+// one pair's points and its whole-region alignment) combined by inverse variance.
+// `shared_sigma_m` is the part of both uncertainties that is one error, not two (the target
+// shape's centre: the same person; one pair's systematic floor), so it is taken out before
 // the weights and added back whole. The result's distance, depth and disparity are those of its
 // position seen from `report`'s left camera; `used` is empty (the points belong to two pairs).
 // When one range failed (or has no finite sigma) the other is returned, re-expressed the same
