@@ -25,6 +25,8 @@ std::string region_status_name(RegionStatus status) {
       return "low_correlation";
     case RegionStatus::no_convergence:
       return "no_convergence";
+    case RegionStatus::not_aligned:
+      return "not_aligned";
   }
   return "unknown";
 }

@@ -85,6 +85,18 @@ MatchStage::MatchStage(const PipelineGeometry& geometry, const MatchStageOptions
   // -f By / Z rows from the left eye's row, at disparity f Bx / Z: -By / Bx rows per px.
   const Eigen::Vector3d c = geometry.ranging(Band::infrared).right_centre_m;
   if (c.x() > 0) infrared_rows_per_disparity_ = -c.y() / c.x();
+  // The left infrared centre seen from the left visible one (both frames share the grid's
+  // rotation): a point at depth Z is f (1/Z - 1/Z_reg) (dx, dy) further on the visible grid
+  // than on the registered infrared image, f / Z being the visible disparity over its baseline.
+  const Eigen::Vector3d delta =
+      (geometry.visible.T_ref_left_rect.inverse() * geometry.infrared.T_ref_left_rect)
+          .translation();
+  if (baseline_visible_m_ > 0) {
+    silhouette_shift_per_disparity_ = delta.head<2>() / baseline_visible_m_;
+  }
+  if (geometry.registration_distance_m > 0) {
+    silhouette_shift_ = -geometry.grid.f * delta.head<2>() / geometry.registration_distance_m;
+  }
   options_.match.min_disparity_px = 0.0;
   options_.match.max_disparity_px = max_disparity(geometry, options.min_distance_m);
   options_.region_options.min_disparity_px = options_.match.min_disparity_px;
@@ -95,6 +107,12 @@ void MatchStage::align(Band band, const cv::Mat& left8, const cv::Mat& right8, c
                        const cv::Mat& silhouette, std::pair<double, double> height_m,
                        match::MatchResult& result) const {
   if (!options_.region) return;
+  if (static_cast<int>(result.matches.size()) >= options_.region_below_points) {
+    result.region.status = match::RegionStatus::not_aligned;
+    result.region.message = "not aligned: the box has " + std::to_string(result.matches.size()) +
+                            " point correspondences";
+    return;
+  }
   match::RegionOptions o = options_.region_options;
   if (band == Band::infrared) o.row_offset_per_disparity = infrared_rows_per_disparity_;
   const double start = median_disparity(result);
@@ -144,14 +162,31 @@ cv::Mat MatchStage::stage_grey(const cv::Mat& image) {
 }
 
 match::MatchResult MatchStage::match_on(Band band, const cv::Mat& left, const cv::Mat& right,
-                                        const cv::Rect& box, const cv::Mat& silhouette,
+                                        const cv::Rect& box, const cv::Mat& infrared_left,
                                         std::pair<double, double> height_m) const {
-  if (!silhouette.empty() && (silhouette.type() != CV_8UC1 || silhouette.size() != box.size())) {
-    throw std::invalid_argument("match: the silhouette must be an 8-bit mask of the box's size");
+  const bool silhouettes = options_.region && !infrared_left.empty();
+  if (silhouettes && infrared_left.size() != grid_size_) {
+    throw std::invalid_argument("match: the infrared image is not on the grid");
   }
   if (band != Band::infrared) {
     check_pair(left, right, grid_size_, CV_8UC1, band == Band::fused ? "fused" : "visible");
     match::MatchResult result = match::match_box(left, right, box, options_.match);
+    cv::Mat silhouette;
+    if (silhouettes) {
+      // The infrared camera sees the target from its own centre: on the grid (registered at
+      // registration_distance_m) its silhouette is displaced from the visible one by the
+      // parallax at the target's distance, from the points' disparity or the box's height.
+      double d = median_disparity(result);
+      if (!std::isfinite(d) && height_m.first > 0) {
+        d = baseline_visible_m_ * box.height / (0.5 * (height_m.first + height_m.second));
+      }
+      if (std::isfinite(d)) {
+        const Eigen::Vector2d s = silhouette_shift_per_disparity_ * d + silhouette_shift_;
+        const cv::Point shift(static_cast<int>(std::lround(s.x())),
+                              static_cast<int>(std::lround(s.y())));
+        silhouette = match::target_silhouette(infrared_left, box - shift);
+      }
+    }
     align(band, left, right, box, silhouette, height_m, result);
     return result;
   }
@@ -167,6 +202,7 @@ match::MatchResult MatchStage::match_on(Band band, const cv::Mat& left, const cv
   cv::Mat left8, right8;
   stretch_counts(left(region), right(region), left8, right8);
   match::MatchResult result = match::match_box(left8, right8, box - region.tl(), options_.match);
+  const cv::Mat silhouette = silhouettes ? match::target_silhouette(left, box) : cv::Mat();
   align(band, left8, right8, box - region.tl(), silhouette, height_m, result);
   const Eigen::Vector2d offset(region.x, region.y);
   for (auto& c : result.matches) {
@@ -183,12 +219,8 @@ std::vector<BandMatches> MatchStage::match(const MatchImages& images, const cv::
   const std::pair<double, double> height = typical_height_m(label);
   const bool has_primary = uses_primary() && !images.primary_left.empty();
   const bool has_infrared = uses_infrared() && !images.infrared_left.empty();
-  // The target's silhouette from the infrared image of the grid, for both pairs' regions.
-  cv::Mat silhouette;
-  if (options_.region && !images.infrared_left.empty() &&
-      images.infrared_left.size() == grid_size_) {
-    silhouette = match::target_silhouette(images.infrared_left, box);
-  }
+  // The target's silhouette comes from the infrared image of the grid, for both pairs' regions.
+  const cv::Mat& silhouette = images.infrared_left;
   std::vector<BandMatches> out;
   if (options_.band == BandChoice::infrared) {
     if (has_infrared) {

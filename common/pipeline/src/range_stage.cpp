@@ -21,6 +21,9 @@ RangeStage::RangeStage(const PipelineGeometry& geometry, const RangeStageOptions
 range::TargetRange RangeStage::range_entry(const TargetEntry& entry, double& shared_sigma_m) const {
   const range::RangingGeometry& geometry = entry.band == Band::infrared ? infrared_ : visible_;
   range::RangeOptions options = options_.range;
+  options.region_systematic_disparity_px = entry.band == Band::infrared
+                                               ? options_.region_floor_infrared_px
+                                               : options_.region_floor_visible_px;
   if (!options_.surface) options.shape = range::TargetShape::for_class(entry.label);
   shared_sigma_m = options.shape.empty() ? 0.0 : options.shape_sigma_m;
   const double to_centre = options_.surface ? 0.0 : range::surface_to_centre_m(entry.label);
@@ -39,7 +42,8 @@ range::TargetRange RangeStage::range_entry(const TargetEntry& entry, double& sha
   double shared_in_pair = shared_sigma_m;
   if (region.status == range::RangeStatus::ok && region.disparity_sigma_px > 0) {
     const double per_px = region.sigma_m / region.disparity_sigma_px;
-    const double floor_m = options.systematic_disparity_px * per_px;
+    const double floor_m =
+        std::min(options.systematic_disparity_px, options.region_systematic_disparity_px) * per_px;
     shared_in_pair = std::sqrt(shared_in_pair * shared_in_pair + floor_m * floor_m);
   }
   return range::combine_ranges(points, region, geometry, shared_in_pair);

@@ -484,8 +484,8 @@ TargetRange range_region(const RangingGeometry& geometry, const cv::Rect& box,
   r.depth_m = position.z();
   r.disparity_px = region.disparity_px;
   r.position_m = geometry.T_ref_left_rect * position;
-  const double px2 = region.sigma_px * region.sigma_px +
-                     options.systematic_disparity_px * options.systematic_disparity_px;
+  const double px2 = region.sigma_px * region.sigma_px + options.region_systematic_disparity_px *
+                                                             options.region_systematic_disparity_px;
   r.sigma_m = std::sqrt(px2 * t.distance_per_px * t.distance_per_px +
                         options.region_model_sigma_m * options.region_model_sigma_m);
   r.disparity_sigma_px = t.distance_per_px > 0 ? r.sigma_m / t.distance_per_px : TargetRange::nan;

@@ -130,7 +130,15 @@ TEST(RangeStage, CombinesTwoPairsAndRefusesTwoEntriesOfOne) {
 
 TEST(MatchStage, AlignsEachBoxsWholeRegionOnEveryPair) {
   const Pairs pairs(12);
-  const auto both = stage(pl::BandChoice::both).match(pairs.images(), kBox);
+  // By default a box with 12 points or more is ranged from its points alone.
+  const auto by_points = stage(pl::BandChoice::both).match(pairs.images(), kBox);
+  ASSERT_EQ(by_points.size(), 2u);
+  EXPECT_EQ(by_points[0].result.region.status, thermovis::match::RegionStatus::not_aligned);
+  pl::MatchStageOptions always;
+  always.band = pl::BandChoice::both;
+  always.region_below_points = 1 << 20;
+  const pl::MatchStage aligner(geometry(), always);
+  const auto both = aligner.match(pairs.images(), kBox);
   ASSERT_EQ(both.size(), 2u);
   for (const auto& band : both) {
     const auto& region = band.result.region;
@@ -141,7 +149,7 @@ TEST(MatchStage, AlignsEachBoxsWholeRegionOnEveryPair) {
         cv::Point(static_cast<int>(region.anchor.x()), static_cast<int>(region.anchor.y()))));
   }
   // A flat visible pair has no region; the infrared one still has.
-  const auto flat = stage(pl::BandChoice::both).match(pairs.images(true), kBox);
+  const auto flat = aligner.match(pairs.images(true), kBox);
   ASSERT_EQ(flat.size(), 2u);
   EXPECT_EQ(flat[0].result.region.status, thermovis::match::RegionStatus::flat);
   EXPECT_TRUE(flat[1].result.region.ok());

@@ -37,6 +37,7 @@ enum class RegionStatus {
   ambiguous,        // the correlation has two peaks of nearly the same height
   low_correlation,  // the best alignment correlates below min_zncc
   no_convergence,   // Gauss-Newton left the search range or did not settle
+  not_aligned,      // the caller did not ask for it (pipeline::MatchStage: enough points)
 };
 std::string region_status_name(RegionStatus status);
 

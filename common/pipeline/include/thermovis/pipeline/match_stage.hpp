@@ -37,10 +37,16 @@ struct MatchStageOptions {
   double min_distance_m = 2.5;  // nearest target searched (sets the largest disparity)
   // The whole-target alignment of every box on every pair (match::align_region), in
   // MatchResult::region: the target's silhouette in the infrared image of the grid (the warm
-  // body, match::target_silhouette) as its mask on both pairs, the whole box where there is no
+  // body, match::target_silhouette) as its mask on both pairs (on the visible pair displaced by
+  // the two cameras' parallax at the target's distance), the whole box where there is no
   // infrared image or the box does not split; started from the points' median disparity when
-  // there are at least 3, else searched over the whole range.
+  // there are at least 3, else searched over the disparities the class's size allows.
   bool region = true;
+  // Boxes with this many point correspondences or more are not aligned as a whole: their
+  // points alone range them as well (near people, hundreds of pixels high), and the region's
+  // one translation fits a near target's depth less well; it also keeps the stage's CPU in the
+  // real-time budget.
+  int region_below_points = 12;
   match::RegionOptions region_options;  // its disparity range is set like the points'
 };
 
@@ -83,10 +89,11 @@ class MatchStage {
   std::vector<BandMatches> match(const MatchImages& images, const cv::Rect& box,
                                  const std::string& label = "") const;
   // One pair: `left`/`right` grey for visible and fused, counts for infrared.
-  // `silhouette`: the region's mask (box-sized CV_8UC1, empty: the whole box).
-  // `height_m`: the class's height range (typical_height_m), {0, 0} for none.
+  // `infrared_left`: the grid's left infrared image (counts), where the region's silhouette is
+  // found (empty: the region is the whole box). `height_m`: the class's height range
+  // (typical_height_m), {0, 0} for none.
   match::MatchResult match_on(Band band, const cv::Mat& left, const cv::Mat& right,
-                              const cv::Rect& box, const cv::Mat& silhouette = cv::Mat(),
+                              const cv::Rect& box, const cv::Mat& infrared_left = cv::Mat(),
                               std::pair<double, double> height_m = {0, 0}) const;
 
  private:
@@ -98,6 +105,10 @@ class MatchStage {
   cv::Size grid_size_;
   double baseline_visible_m_ = 0, baseline_infrared_m_ = 0;
   double infrared_rows_per_disparity_ = 0;  // the infrared pair's epipolar slope on the grid
+  // Where the infrared silhouette lies on the visible image: shift (px) = per_disparity *
+  // visible disparity + constant (registration at a finite distance).
+  Eigen::Vector2d silhouette_shift_per_disparity_ = Eigen::Vector2d::Zero();
+  Eigen::Vector2d silhouette_shift_ = Eigen::Vector2d::Zero();
   MatchStageOptions options_;
 };
 

@@ -156,6 +156,10 @@ struct RangeOptions {
   // simulated people the region's range is 0.05-0.07 m too far at 5 m and within 0.03 m at
   // 10-20 m (`thermovis bench ranging --estimate region`).
   double region_model_sigma_m = 0.05;
+  // Floor of a whole-region disparity's error, px (range_region): the outline's mixed pixels
+  // and the background around it pull the region's disparity by a few hundredths of a pixel
+  // where the background behind is plain, more where it is textured.
+  double region_systematic_disparity_px = 0.05;
 };
 
 struct TargetRange {
@@ -189,7 +193,7 @@ TargetRange range_target(const RangingGeometry& geometry, const cv::Rect& box,
 // inside's texture, on the visible surface. So the range is moved `surface_to_centre_m` (the
 // class's surface-to-centre offset, surface_to_centre_m) times the inside's share of the
 // alignment (1 - contour_fraction) further along the line of sight. Uncertainty: the region's
-// own sigma and options.systematic_disparity_px in quadrature, scaled by Eq. 2, and
+// own sigma and options.region_systematic_disparity_px in quadrature, scaled by Eq. 2, and
 // options.region_model_sigma_m. Never throws on bad data: a region without
 // a disparity gives RangeStatus::no_region with its message.
 TargetRange range_region(const RangingGeometry& geometry, const cv::Rect& box,
