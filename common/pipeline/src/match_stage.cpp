@@ -103,11 +103,15 @@ MatchStage::MatchStage(const PipelineGeometry& geometry, const MatchStageOptions
   options_.region_options.max_disparity_px = options_.match.max_disparity_px;
 }
 
+bool MatchStage::aligns(const match::MatchResult& result) const {
+  return options_.region && static_cast<int>(result.matches.size()) < options_.region_below_points;
+}
+
 void MatchStage::align(Band band, const cv::Mat& left8, const cv::Mat& right8, const cv::Rect& box,
                        const cv::Mat& silhouette, std::pair<double, double> height_m,
                        match::MatchResult& result) const {
   if (!options_.region) return;
-  if (static_cast<int>(result.matches.size()) >= options_.region_below_points) {
+  if (!aligns(result)) {
     result.region.status = match::RegionStatus::not_aligned;
     result.region.message = "not aligned: the box has " + std::to_string(result.matches.size()) +
                             " point correspondences";
@@ -172,7 +176,7 @@ match::MatchResult MatchStage::match_on(Band band, const cv::Mat& left, const cv
     check_pair(left, right, grid_size_, CV_8UC1, band == Band::fused ? "fused" : "visible");
     match::MatchResult result = match::match_box(left, right, box, options_.match);
     cv::Mat silhouette;
-    if (silhouettes) {
+    if (silhouettes && aligns(result)) {
       // The infrared camera sees the target from its own centre: on the grid (registered at
       // registration_distance_m) its silhouette is displaced from the visible one by the
       // parallax at the target's distance, from the points' disparity or the box's height.
@@ -202,7 +206,8 @@ match::MatchResult MatchStage::match_on(Band band, const cv::Mat& left, const cv
   cv::Mat left8, right8;
   stretch_counts(left(region), right(region), left8, right8);
   match::MatchResult result = match::match_box(left8, right8, box - region.tl(), options_.match);
-  const cv::Mat silhouette = silhouettes ? match::target_silhouette(left, box) : cv::Mat();
+  const cv::Mat silhouette =
+      silhouettes && aligns(result) ? match::target_silhouette(left, box) : cv::Mat();
   align(band, left8, right8, box - region.tl(), silhouette, height_m, result);
   const Eigen::Vector2d offset(region.x, region.y);
   for (auto& c : result.matches) {

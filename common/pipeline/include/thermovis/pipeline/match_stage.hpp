@@ -97,6 +97,8 @@ class MatchStage {
                               std::pair<double, double> height_m = {0, 0}) const;
 
  private:
+  // Whether a box with these points gets a whole-region alignment (region_below_points).
+  bool aligns(const match::MatchResult& result) const;
   // The whole-region alignment of `box` into result.region (with MatchStageOptions::region).
   void align(Band band, const cv::Mat& left8, const cv::Mat& right8, const cv::Rect& box,
              const cv::Mat& silhouette, std::pair<double, double> height_m,
