@@ -53,35 +53,52 @@ void catmull_rom(double t, double w[4], double dw[4]) {
   dw[3] = 0.5 * (3 * t2 - 2 * t);
 }
 
-// R and its derivatives along x and y at (u, v) by separable Catmull-Rom; false when the
-// 4 x 4 taps leave the image.
-bool sample(const cv::Mat& R, double u, double v, double& value, double& du, double& dv) {
-  const double fu = std::floor(u), fv = std::floor(v);
-  const int ix = static_cast<int>(fu), iy = static_cast<int>(fv);
-  if (ix < 1 || iy < 1 || ix + 2 >= R.cols || iy + 2 >= R.rows) return false;
-  double wx[4], dwx[4], wy[4], dwy[4];
-  catmull_rom(u - fu, wx, dwx);
-  catmull_rom(v - fv, wy, dwy);
-  value = du = dv = 0;
-  for (int j = 0; j < 4; ++j) {
-    const uchar* row = R.ptr<uchar>(iy - 1 + j) + ix - 1;
-    double s = 0, sd = 0;
-    for (int i = 0; i < 4; ++i) {
-      s += wx[i] * row[i];
-      sd += dwx[i] * row[i];
-    }
-    value += wy[j] * s;
-    du += wy[j] * sd;
-    dv += dwy[j] * s;
+// Separable Catmull-Rom sampling of R at every region pixel shifted by one (-d, dy): the
+// fraction of the shift, and so the 4 x 4 weights, are the same for all pixels.
+class ShiftedSampler {
+ public:
+  ShiftedSampler(const cv::Mat& R, double d, double dy) : R_(R) {
+    const double u = -d, v = dy, fu = std::floor(u), fv = std::floor(v);
+    ox_ = static_cast<int>(fu) - 1;
+    oy_ = static_cast<int>(fv) - 1;
+    catmull_rom(u - fu, wx_, dwx_);
+    catmull_rom(v - fv, wy_, dwy_);
   }
-  return true;
-}
+  // R and its derivatives along x and y at (x - d, y + dy); false when the 4 x 4 taps leave the
+  // image.
+  bool operator()(int x, int y, double& value, double& du, double& dv) const {
+    const int ix = x + ox_, iy = y + oy_;
+    if (ix < 0 || iy < 0 || ix + 3 >= R_.cols || iy + 3 >= R_.rows) return false;
+    const uchar* row = R_.ptr<uchar>(iy) + ix;
+    const size_t step = R_.step[0];
+    double value_ = 0, du_ = 0, dv_ = 0;
+    for (int j = 0; j < 4; ++j, row += step) {
+      const double r0 = row[0], r1 = row[1], r2 = row[2], r3 = row[3];
+      const double s = wx_[0] * r0 + wx_[1] * r1 + wx_[2] * r2 + wx_[3] * r3;
+      const double sd = dwx_[0] * r0 + dwx_[1] * r1 + dwx_[2] * r2 + dwx_[3] * r3;
+      value_ += wy_[j] * s;
+      du_ += wy_[j] * sd;
+      dv_ += dwy_[j] * s;
+    }
+    value = value_;
+    du = du_;
+    dv = dv_;
+    return true;
+  }
 
-// Weighted ZNCC of the region's left values with the right image at integer shift (d, dy);
-// -2 when a pixel leaves the right image.
-double zncc_shift(const std::vector<Pixel>& pixels, const cv::Mat& R, int d, int dy) {
-  double sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0;
+ private:
+  const cv::Mat& R_;
+  int ox_, oy_;
+  double wx_[4], dwx_[4], wy_[4], dwy_[4];
+};
+
+// ZNCC of the region's left values (with or without the ring around the mask) with the right
+// image at integer shift (d, dy); -2 when a pixel leaves the right image.
+double zncc_shift(const std::vector<Pixel>& pixels, const cv::Mat& R, int d, int dy,
+                  bool with_ring) {
+  double sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0, n = 0;
   for (const Pixel& p : pixels) {
+    if (p.ring && !with_ring) continue;
     const int x = p.x - d, y = p.y + dy;
     if (x < 0 || y < 0 || x >= R.cols || y >= R.rows) return -2.0;
     const double a = p.value, b = R.at<uchar>(y, x);
@@ -90,11 +107,18 @@ double zncc_shift(const std::vector<Pixel>& pixels, const cv::Mat& R, int d, int
     saa += a * a;
     sbb += b * b;
     sab += a * b;
+    n += 1;
   }
-  const double n = static_cast<double>(pixels.size());
+  if (n < 2) return 0.0;
   const double var = (saa - sa * sa / n) * (sbb - sb * sb / n);
   return var > 1e-9 ? (sab - sa * sb / n) / std::sqrt(var) : 0.0;
 }
+
+// The correlation without the ring must beat the one with it by this much to drop the ring.
+constexpr double kRingMargin = 0.02;
+// A smaller mask always keeps its ring: alone its few pixels (a far target's) align worse than
+// with a background they partly share.
+constexpr int kRingDropMinPixels = 100;
 
 RegionDisparity fail(RegionDisparity r, RegionStatus status, std::string message) {
   r.status = status;
@@ -174,7 +198,8 @@ RegionDisparity align_region(const cv::Mat& L, const cv::Mat& R, const cv::Rect&
       const bool in = region.at<uchar>(y + 1, x + 1) != 0,
                  around = ring.at<uchar>(y + 1, x + 1) != 0;
       if (!in && !around) continue;
-      if (in && (x % stride != 0 || y % stride != 0)) continue;
+      // The ring is a line: on the same lattice it keeps its share of the pixels.
+      if (x % stride != 0 || y % stride != 0) continue;
       const int gx = inside.x + x, gy = inside.y + y;
       if (gx < 0 || gy < 0 || gx >= L.cols || gy >= L.rows) continue;
       pixels.push_back({gx, gy, static_cast<float>(L.at<uchar>(gy, gx)),
@@ -217,10 +242,30 @@ RegionDisparity align_region(const cv::Mat& L, const cv::Mat& R, const cv::Rect&
   }
   // The row offset the epipolar geometry expects at disparity d.
   const auto row_at = [&](double d) { return o.row_offset_px + o.row_offset_per_disparity * d; };
-  std::vector<double> c(static_cast<size_t>(hi - lo + 1));
+  // The ring moves with the outline only where the background behind is plain; behind a
+  // textured background it moves with the background. Both ways are correlated and the better
+  // one kept: without the ring, its pixels are dropped.
+  const bool has_ring = static_cast<int>(pixels.size()) > in_mask;
+  r.ring_used = has_ring;
+  std::vector<double> c(static_cast<size_t>(hi - lo + 1)), c_mask;
   for (int d = lo; d <= hi; ++d) {
     c[static_cast<size_t>(d - lo)] =
-        zncc_shift(pixels, R, d, static_cast<int>(std::lround(row_at(d))));
+        zncc_shift(pixels, R, d, static_cast<int>(std::lround(row_at(d))), true);
+  }
+  if (has_ring && in_mask >= kRingDropMinPixels) {
+    c_mask.resize(c.size());
+    for (int d = lo; d <= hi; ++d) {
+      c_mask[static_cast<size_t>(d - lo)] =
+          zncc_shift(pixels, R, d, static_cast<int>(std::lround(row_at(d))), false);
+    }
+    if (*std::max_element(c_mask.begin(), c_mask.end()) >
+        *std::max_element(c.begin(), c.end()) + kRingMargin) {
+      c.swap(c_mask);
+      pixels.erase(
+          std::remove_if(pixels.begin(), pixels.end(), [](const Pixel& p) { return p.ring; }),
+          pixels.end());
+      r.ring_used = false;
+    }
   }
   const auto best_it = std::max_element(c.begin(), c.end());
   const int best = static_cast<int>(best_it - c.begin());
@@ -274,14 +319,15 @@ RegionDisparity align_region(const cv::Mat& L, const cv::Mat& R, const cv::Rect&
       Eigen::Matrix4d H = Eigen::Matrix4d::Zero();
       Eigen::Vector4d b = Eigen::Vector4d::Zero();
       int used = 0;
+      const ShiftedSampler sample(R, d, dy);
       for (size_t i = 0; i < pixels.size(); ++i) {
         double v, du, dv;
-        valid[i] = sample(R, pixels[i].x - d, pixels[i].y + dy, v, du, dv);
+        valid[i] = sample(pixels[i].x, pixels[i].y, v, du, dv);
         if (!valid[i]) continue;
         ++used;
         const double e = g * (v - mean_value) + h + mean_value - pixels[i].value;
         residual[i] = e;
-        gradient[i] = g * std::hypot(du, dv);
+        gradient[i] = g * std::sqrt(du * du + dv * dv);
         if (weight[i] == 0.0) continue;
         const Eigen::Vector4d J(-g * du, g * dv, v - mean_value, 1.0);
         H.noalias() += weight[i] * J * J.transpose();
@@ -308,7 +354,7 @@ RegionDisparity align_region(const cv::Mat& L, const cv::Mat& R, const cv::Rect&
                     "the alignment left the search range (d " + std::to_string(d) + " px, dy " +
                         std::to_string(dy) + " px, gain " + std::to_string(g) + ")");
       }
-      if (std::abs(step[0]) < 1e-4 && std::abs(step[1]) < 1e-4) {
+      if (std::abs(step[0]) < 2e-3 && std::abs(step[1]) < 2e-3) {
         converged = true;
         break;
       }
@@ -341,9 +387,10 @@ RegionDisparity align_region(const cv::Mat& L, const cv::Mat& R, const cv::Rect&
   // Final statistics at the solution.
   double sw = 0, swe2 = 0, sa = 0, sb = 0, saa = 0, sbb = 0, sab = 0, info = 0, info_contour = 0;
   Eigen::Matrix4d H = Eigen::Matrix4d::Zero();
+  const ShiftedSampler sample(R, d, dy);
   for (size_t i = 0; i < pixels.size(); ++i) {
     double v, du, dv;
-    if (!sample(R, pixels[i].x - d, pixels[i].y + dy, v, du, dv)) continue;
+    if (!sample(pixels[i].x, pixels[i].y, v, du, dv)) continue;
     const double e = g * (v - mean_value) + h + mean_value - pixels[i].value, w = weight[i];
     const Eigen::Vector4d J(-g * du, g * dv, v - mean_value, 1.0);
     H.noalias() += w * J * J.transpose();

@@ -10,7 +10,8 @@
 // solved by Gauss-Newton (Lucas-Kanade) on a separable Catmull-Rom interpolation of R (value
 // and derivatives from one kernel; bilinear would pull d towards whole pixels), from an integer
 // start found by zero-mean normalised correlation of the whole region along the row. The weights
-// are the region's mask (and a one-pixel ring around it, the outline's outer side) times Tukey's
+// are the region's mask (and a one-pixel ring around it, the outline's outer side, unless the
+// region correlates better without it: a textured background behind the outline) times Tukey's
 // biweight of the residual (iteratively reweighted, each pixel's scale including what half a
 // pixel of misalignment makes of its gradient), so that pixels of the background inside the
 // region and the outline's changes between the eyes count less. A weak prior holds the gain at
@@ -87,6 +88,9 @@ struct RegionDisparity {
   // band of the region's outline: near 1 when only the silhouette's edge carries texture (a
   // uniformly warm body in infrared), lower when the inside is textured (clothing by day).
   double contour_fraction = nan;
+  // Whether the one-pixel ring around the mask took part: it is dropped when the region
+  // correlates better without it (a textured background behind the outline).
+  bool ring_used = false;
   bool ok() const { return status == RegionStatus::ok; }
 };
 
