@@ -225,6 +225,9 @@ void MatchNode::answer(const DetectionArray& detections) {
     if (infrared != nullptr && !both) {
       images.infrared_left = infrared->left;
       images.infrared_right = infrared->right;
+    } else if (infrared != nullptr) {
+      // The visible regions' silhouettes, as in CapturePipeline.
+      images.silhouette_infrared = infrared->left;
     }
     if (!images.primary_left.empty() || !images.infrared_left.empty()) {
       match_boxes(detections, images, out.targets());

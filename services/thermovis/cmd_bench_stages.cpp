@@ -115,8 +115,8 @@ int run_bench_stages(const Options& opt) {
       capture.grey_left = pl::MatchStage::stage_grey(capture.visible_left);
       capture.grey_right = pl::MatchStage::stage_grey(capture.visible_right);
     });
-    const pl::MatchImages images{capture.grey_left, capture.grey_right, capture.infrared_left,
-                                 capture.infrared_right};
+    const pl::MatchImages images{
+        capture.grey_left, capture.grey_right, capture.infrared_left, capture.infrared_right, {}};
     const auto truths = simulated.truth(frame);
     for (const auto& d : found) {
       std::vector<pl::BandMatches> bands;

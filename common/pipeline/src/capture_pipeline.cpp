@@ -72,8 +72,8 @@ CaptureTarget CapturePipeline::range(const GridCapture& capture, const cv::Rect&
     capture.infrared_right.convertTo(widened.infrared_right, CV_16U);
     return range(widened, box, label, band, each_band);
   }
-  MatchImages images{capture.grey_left, capture.grey_right, capture.infrared_left,
-                     capture.infrared_right};
+  MatchImages images{
+      capture.grey_left, capture.grey_right, capture.infrared_left, capture.infrared_right, {}};
   CaptureTarget out;
   out.matches = match_stage(band).match(images, box, label);
   std::vector<TargetEntry> entries;

@@ -225,7 +225,8 @@ std::vector<BandMatches> MatchStage::match(const MatchImages& images, const cv::
   const bool has_primary = uses_primary() && !images.primary_left.empty();
   const bool has_infrared = uses_infrared() && !images.infrared_left.empty();
   // The target's silhouette comes from the infrared image of the grid, for both pairs' regions.
-  const cv::Mat& silhouette = images.infrared_left;
+  const cv::Mat& silhouette =
+      images.silhouette_infrared.empty() ? images.infrared_left : images.silhouette_infrared;
   std::vector<BandMatches> out;
   if (options_.band == BandChoice::infrared) {
     if (has_infrared) {

@@ -56,6 +56,9 @@ struct MatchStageOptions {
 struct MatchImages {
   cv::Mat primary_left, primary_right;
   cv::Mat infrared_left, infrared_right;
+  // The left infrared image the targets' silhouettes come from, where the infrared pair is not
+  // to be matched here (matched apart: MatchNode with band both); else infrared_left is used.
+  cv::Mat silhouette_infrared;
 };
 
 struct BandMatches {
