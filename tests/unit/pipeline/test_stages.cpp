@@ -35,9 +35,9 @@ struct Pairs {
     grey_right.convertTo(counts_right, CV_16U, 4, 8000);
   }
   pl::MatchImages images(bool flat_visible = false) const {
-    if (!flat_visible) return {grey_left, grey_right, counts_left, counts_right};
+    if (!flat_visible) return {grey_left, grey_right, counts_left, counts_right, {}};
     const cv::Mat flat(grey_left.size(), CV_8UC1, cv::Scalar(90));
-    return {flat, flat.clone(), counts_left, counts_right};
+    return {flat, flat.clone(), counts_left, counts_right, {}};
   }
   cv::Mat grey_left, grey_right, counts_left, counts_right;
 };
