@@ -12,20 +12,35 @@ namespace {
 // Counts of the region both eyes' searches look at, stretched linearly to 8 bits between the
 // left region's 0.5 and 99.5 percentiles (the same mapping for both eyes).
 void stretch_counts(const cv::Mat& left, const cv::Mat& right, cv::Mat& left8, cv::Mat& right8) {
-  std::vector<std::uint16_t> values;
-  values.reserve(static_cast<std::size_t>(left.total()));
+  // The percentiles from a histogram of the counts between the region's extremes (exactly the
+  // k-th smallest values a sort would give, without sorting).
+  std::uint16_t vmin = 0xFFFF, vmax = 0;
+  std::size_t n = 0;
   for (int r = 0; r < left.rows; ++r) {
     const auto* row = left.ptr<std::uint16_t>(r);
-    for (int c = 0; c < left.cols; ++c)
-      if (row[c] != 0) values.push_back(row[c]);  // 0: outside the camera's field
+    for (int c = 0; c < left.cols; ++c) {
+      if (row[c] == 0) continue;  // 0: outside the camera's field
+      vmin = std::min(vmin, row[c]);
+      vmax = std::max(vmax, row[c]);
+      ++n;
+    }
   }
   double lo = 0, hi = 1;
-  if (!values.empty()) {
+  if (n > 0) {
+    std::vector<std::uint32_t> histogram(static_cast<std::size_t>(vmax - vmin) + 1, 0);
+    for (int r = 0; r < left.rows; ++r) {
+      const auto* row = left.ptr<std::uint16_t>(r);
+      for (int c = 0; c < left.cols; ++c)
+        if (row[c] != 0) ++histogram[row[c] - vmin];
+    }
     const auto at = [&](double q) {
-      auto it =
-          values.begin() + static_cast<std::ptrdiff_t>(q * static_cast<double>(values.size() - 1));
-      std::nth_element(values.begin(), it, values.end());
-      return static_cast<double>(*it);
+      const auto k = static_cast<std::size_t>(q * static_cast<double>(n - 1));
+      std::size_t seen = 0;
+      for (std::size_t v = 0; v < histogram.size(); ++v) {
+        seen += histogram[v];
+        if (seen > k) return static_cast<double>(vmin + v);
+      }
+      return static_cast<double>(vmax);
     };
     lo = at(0.005);
     hi = std::max(lo + 1.0, at(0.995));
