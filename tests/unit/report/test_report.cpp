@@ -104,6 +104,9 @@ TEST(Report, FormatsCannedRowsIntoTablesNamingTheirCommands) {
   EXPECT_NE(md.find("| 5 | -0.010, 0.018, 50 % | 0.030, 0.040, 100 % |\n"), std::string::npos)
       << md;
   EXPECT_NE(md.find("| 60 | -0.360, 0.500, 0 % | -, -, - |\n"), std::string::npos) << md;
+  // As disparity: 0.0214 m at 0.01 m per 0.1 px is 0.214 px; the paper's 0.18 m 1.8 px.
+  EXPECT_NE(md.find("| 5 | 0.214 / 1.800 | 0.300 / 0.500 |\n"), std::string::npos) << md;
+  EXPECT_NE(md.find("| 60 | 3.600 / 32.400 | - / 25.500 |\n"), std::string::npos) << md;
   // Matching: one row per method.
   EXPECT_NE(md.find("| ncc | 5 | 1210 | 91.6 % | 85.3 % | 0.247 px | 33.3 |\n"), std::string::npos)
       << md;
@@ -118,6 +121,45 @@ TEST(Report, FormatsCannedRowsIntoTablesNamingTheirCommands) {
   // Sections without runs (fusion, pipeline) are left out rather than printed empty.
   EXPECT_EQ(md.find("VIFB"), std::string::npos) << md;
   EXPECT_EQ(md.find("capture to range"), std::string::npos) << md;
+}
+
+TEST(Report, RangingRunsOfOneLabelArePooledAndLabelsGetTheirOwnTables) {
+  const fs::path dir = canned_runs("report_pooled");
+  // A second seed on the same grid, and a run on another grid.
+  write(dir / "runs.json", R"({"machine": {"cpu": "Test CPU", "cores": 2,
+      "date": "2030-01-02 03:04 UTC", "load_average": 1.5}, "quick": false,
+    "command": "thermovis report",
+    "runs": [
+      {"kind": "ranging", "label": "grid A", "file": "1-ranging.jsonl", "command": "seed 1"},
+      {"kind": "ranging", "label": "grid A", "file": "5-ranging.jsonl", "command": "seed 2"},
+      {"kind": "ranging", "label": "grid B", "file": "6-ranging.jsonl", "command": "seed 1 B"}]})");
+  write(dir / "5-ranging.jsonl",
+        ranging_row(5, "visible", 2, "0.0614", "0.0296", "0.0791", "1.0", "0.0383", 0.18) +
+            ranging_row(5, "infrared", 2, "0.06", "0.06", "0.09", "0.5", "0.07", 0.05) +
+            ranging_row(60, "visible", 0, "null", "null", "null", "null", "null", 3.24) +
+            ranging_row(60, "infrared", 1, "0.5", "0.5", "0.5", "1.0", "0.6", 2.55));
+  write(dir / "6-ranging.jsonl",
+        ranging_row(5, "visible", 1, "0.1", "0.1", "0.1", "1.0", "0.2", 0.18));
+  const fs::path out = dir / "RESULTS.md";
+  const auto r = run_thermovis("report --from " + dir.string() + " --out " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string md = read(out);
+  const auto a = md.find("### grid A"), b = md.find("### grid B");
+  ASSERT_NE(a, std::string::npos) << md;
+  ASSERT_NE(b, std::string::npos) << md;
+  const std::string grid_a = md.substr(a, b - a), grid_b = md.substr(b);
+  // visible 5 m: (2 x 0.0214 + 2 x 0.0614) / 4 = 0.0414, max 0.0791, 4 of 4; bias
+  // (2 x -0.0104 + 2 x 0.0296) / 4 = 0.0096, sigma 0.0283, within (0.5 + 1.0) / 2.
+  // infrared 5 m: (0.03 + 2 x 0.06) / 3 = 0.05, 3 of 4.
+  EXPECT_NE(grid_a.find("| 5 | 0.041 / 0.079, 4/4 (0.18) | 0.050 / 0.090, 3/4 (0.05) |\n"),
+            std::string::npos)
+      << grid_a;
+  EXPECT_NE(grid_a.find("| 5 | 0.010, 0.028, 75 % |"), std::string::npos) << grid_a;
+  // 60 m: one ranged in each mode over the two seeds.
+  EXPECT_NE(grid_a.find("| 60 | 0.360 / 0.360, 1/4 (3.24) | 0.500 / 0.500, 1/4 (2.55) |\n"),
+            std::string::npos)
+      << grid_a;
+  EXPECT_NE(grid_b.find("| 5 | 0.100 / 0.100, 1/2 (0.18) |\n"), std::string::npos) << grid_b;
 }
 
 TEST(Report, ABadRowNamesItsFileAndLine) {
