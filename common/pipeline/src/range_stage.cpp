@@ -15,15 +15,17 @@ RangeEstimate parse_range_estimate(const std::string& name) {
 RangeStage::RangeStage(const PipelineGeometry& geometry, const RangeStageOptions& options)
     : visible_(geometry.ranging(Band::visible)),
       infrared_(geometry.ranging(Band::infrared)),
+      grid_px_per_rad_(geometry.grid.f),
       T_reporting_ref_(geometry.T_ref_reporting.inverse()),
       options_(options) {}
 
 range::TargetRange RangeStage::range_entry(const TargetEntry& entry, double& shared_sigma_m) const {
   const range::RangingGeometry& geometry = entry.band == Band::infrared ? infrared_ : visible_;
   range::RangeOptions options = options_.range;
-  options.region_systematic_disparity_px = entry.band == Band::infrared
-                                               ? options_.region_floor_infrared_px
-                                               : options_.region_floor_visible_px;
+  options.region_systematic_disparity_px =
+      1e-3 * grid_px_per_rad_ *
+      (entry.band == Band::infrared ? options_.region_floor_infrared_mrad
+                                    : options_.region_floor_visible_mrad);
   if (!options_.surface) options.shape = range::TargetShape::for_class(entry.label);
   shared_sigma_m = options.shape.empty() ? 0.0 : options.shape_sigma_m;
   const double to_centre = options_.surface ? 0.0 : range::surface_to_centre_m(entry.label);
