@@ -14,6 +14,8 @@ namespace {
 constexpr std::uint64_t kRecoverAfterFrames = 50;
 // Bad inputs written to the log one by one before thinning.
 constexpr std::uint32_t kLoggedErrors = 20;
+// How long a stopping service waits for its readers to acknowledge its last health.
+constexpr std::chrono::milliseconds kStoppingAckWait{500};
 
 std::string clip(const std::string& text, std::size_t max) {
   return text.size() <= max ? text : text.substr(0, max - 3) + "...";
@@ -56,6 +58,9 @@ void HealthReporter::set_state(HealthState state, const std::string& message) {
     message_ = message;
   }
   publish_now();
+  // The last word of a stopping service (its final counters) must reach the readers before the
+  // process exits and takes its writer with it.
+  if (state == HEALTH_STOPPING) writer_.wait_for_acknowledgments(kStoppingAckWait);
 }
 
 void HealthReporter::frame_processed() {

@@ -232,6 +232,13 @@ void* WriterBase::loan_raw() {
 
 void WriterBase::discard_raw(void* sample) noexcept { writer_->discard_loan(sample); }
 
+bool WriterBase::wait_for_acknowledgments(std::chrono::milliseconds timeout) {
+  const auto ns = std::chrono::duration_cast<std::chrono::nanoseconds>(timeout).count();
+  const eprosima::fastrtps::Duration_t max_wait(static_cast<std::int32_t>(ns / 1'000'000'000),
+                                                static_cast<std::uint32_t>(ns % 1'000'000'000));
+  return writer_->wait_for_acknowledgments(max_wait) == ReturnCode_t::RETCODE_OK;
+}
+
 void WriterBase::write_raw(void* sample) {
   // The two-argument overload returns a ReturnCode_t; write(void*) returns a bool, which would
   // convert to RETCODE_ERROR (1) on success.

@@ -81,6 +81,9 @@ class WriterBase : public EndpointBase {
 
   // Waits until `count` readers are matched (discovery done). False on timeout.
   bool wait_for_readers(std::uint32_t count, std::chrono::milliseconds timeout);
+  // Waits until every matched reliable reader has acknowledged every sample written. False on
+  // timeout (or a writer whose readers are best effort only).
+  bool wait_for_acknowledgments(std::chrono::milliseconds timeout);
   eprosima::fastdds::dds::DataWriter& native() { return *writer_; }
   // Deletes the DDS writer and creates it anew (a new GUID, a new pool; readers match it again).
   // Throws std::runtime_error when the old writer cannot be deleted (this process still holds
