@@ -18,6 +18,19 @@ inline double thread_cpu_ms() {
   return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) * 1e-6;
 }
 
+// OpenCV on this thread alone while it lives (its workers' CPU time is not this thread's), the
+// thread count restored after.
+class OneOpenCvThread {
+ public:
+  OneOpenCvThread() : threads_(cv::getNumThreads()) { cv::setNumThreads(1); }
+  ~OneOpenCvThread() { cv::setNumThreads(threads_); }
+  OneOpenCvThread(const OneOpenCvThread&) = delete;
+  OneOpenCvThread& operator=(const OneOpenCvThread&) = delete;
+
+ private:
+  int threads_;
+};
+
 // CPU ms of the floor for one capture's images (a range of cv::Mat) on a grid of `grid` px,
 // the best of `repeats` runs (the first allocates the outputs; the machine is shared).
 // OpenCV 4.6's INTER_AREA is vectorised only for whole-number ratios; onto a grid of another
@@ -26,9 +39,7 @@ inline double thread_cpu_ms() {
 template <class Images>
 double capture_floor_cpu_ms(const Images& images, cv::Size grid, int repeats = 5,
                             int interpolation = cv::INTER_AREA) {
-  // On this thread alone: with OpenCV's workers, this thread's CPU time would leave out theirs.
-  const int threads = cv::getNumThreads();
-  cv::setNumThreads(1);
+  const OneOpenCvThread one_thread;
   cv::Mat copy, resized;
   double best = 1e300;
   for (int k = 0; k < repeats; ++k) {
@@ -39,7 +50,6 @@ double capture_floor_cpu_ms(const Images& images, cv::Size grid, int repeats = 5
     }
     best = std::min(best, thread_cpu_ms() - start);
   }
-  cv::setNumThreads(threads);
   return best;
 }
 

@@ -9,7 +9,6 @@
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
-#include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
@@ -92,12 +91,10 @@ int run_bench_stages(const Options& opt) {
     // Each stage on this thread alone (this thread's CPU time would leave out OpenCV's workers':
     // the remaps share their rows among them); the rendering keeps them.
     auto timed = [&](const std::string& name, const auto& body) {
-      const int threads = cv::getNumThreads();
-      cv::setNumThreads(1);
+      const thermovis::cli::OneOpenCvThread one_thread;
       const double t0 = thread_cpu_ms();
       body();
       ms[name] += thread_cpu_ms() - t0;
-      cv::setNumThreads(threads);
     };
     auto& stage = pipeline.rectify_stage();
     timed("rectify_infrared", [&] {
