@@ -9,12 +9,14 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "capture_floor.hpp"
 #include "command.hpp"
+#include "display_session.hpp"
 #include "pipeline_session.hpp"
 #include "thermovis/node/service.hpp"
 
@@ -26,17 +28,39 @@ struct Options {
   double warmup_s = 5.0;
   bool json = false;
   std::vector<std::string> kill;  // services to kill (SIGKILL) once each during the measurement
+  bool view = false;              // the live display beside the pipeline (implied by a browser)
+  thermovis::cli::DisplayOptions display;
 };
 
-// Runs the session for `seconds`, or until a stop signal; false when stopped early.
-bool run_for(thermovis::cli::PipelineSession& session, double seconds) {
+// Runs the session (and the display, if any) for `seconds`, or until a stop signal; false when
+// stopped early.
+bool run_for(thermovis::cli::PipelineSession& session, thermovis::cli::DisplaySession* display,
+             double seconds) {
   const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
   while (std::chrono::steady_clock::now() < end) {
     if (thermovis::node::stop_requested()) return false;
     session.step();
+    if (display != nullptr) display->poll();
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
   return true;
+}
+
+// The page's display latency (DisplaySession::latency) as one line, beside the paper's figure.
+std::string display_text(const nlohmann::json& latency, const std::string& browser) {
+  std::ostringstream out;
+  if (latency.is_null() || latency.value("frames", 0) == 0) {
+    out << "  display: no frame shown and measured by " << browser << "\n";
+    return out.str();
+  }
+  const auto p50 = [&](const char* part) { return latency[part]["p50_ms"].get<double>(); };
+  out << std::fixed << std::setprecision(1) << "  display (" << browser
+      << "): capture to pixels p50 " << p50("capture_to_shown") << " ms, p95 "
+      << latency["capture_to_shown"]["p95_ms"].get<double>() << " ms over "
+      << latency["frames"].get<int>() << " frames shown (the paper: 22.31 ms); p50 of its parts: "
+      << "capture to range " << p50("capture_to_range") << ", range to JPEG "
+      << p50("range_to_encoded") << ", JPEG to page " << p50("encoded_to_shown") << " ms\n";
+  return out.str();
 }
 
 // CPU of each process over the measurement per capture (the camera's 50 Hz slots the
@@ -87,21 +111,35 @@ int run_bench(const Options& opt) {
     std::cout << "warming up for " << opt.warmup_s << " s, then measuring for " << opt.seconds
               << " s (DDS domain " << opt.session.domain << ")" << std::endl;
   }
-  run_for(session, opt.warmup_s);
+  std::unique_ptr<thermovis::cli::DisplaySession> display;
+  if (opt.view || !opt.display.browser.empty()) {
+    display = std::make_unique<thermovis::cli::DisplaySession>(opt.session, opt.display);
+  }
+  run_for(session, display.get(), opt.warmup_s);
   session.reset_statistics();
+  if (display) display->reset_statistics();
   // Kills spread evenly over the measured time, each with time to recover before the next.
   const double slice = opt.seconds / static_cast<double>(opt.kill.size() + 1);
   bool running = true;
   for (const std::string& service : opt.kill) {
-    running = running && run_for(session, slice);
+    running = running && run_for(session, display.get(), slice);
     if (running) session.kill_service(service);
   }
-  if (running) run_for(session, slice);
-  const auto cpu = session.cpu();  // before stopping: the processes must still be there
+  if (running) run_for(session, display.get(), slice);
+  auto cpu = session.cpu();  // before stopping: the processes must still be there
+  nlohmann::json display_latency;
+  std::vector<thermovis::cli::ProcessCpu> display_cpu;
+  if (display) {
+    display_cpu = display->cpu();
+    if (!opt.display.browser.empty()) display_latency = display->latency();
+    display->stop();
+  }
   const auto geometry = session.geometry();
   session.stop();
   const auto latency = session.latency();
   const CpuBudget budget = cpu_budget(session, cpu, geometry, latency);
+  // Not part of the budget (the pipeline's), but listed beside its processes.
+  cpu.insert(cpu.end(), display_cpu.begin(), display_cpu.end());
   const auto errors = session.errors();
   if (opt.json) {
     auto j = thermovis::cli::summary_json(latency, errors);
@@ -133,6 +171,7 @@ int run_bench(const Options& opt) {
                                        : nlohmann::json{{"outage_ms", nullptr}};
     }
     if (!opt.kill.empty()) j["outages"] = outages;
+    if (!opt.display.browser.empty()) j["display"] = display_latency;
     std::cout << j.dump() << std::endl;
   } else {
     std::cout << thermovis::supervisor::summary_text(latency, session.deadline_ms());
@@ -164,6 +203,8 @@ int run_bench(const Options& opt) {
         std::cout << "  killed " << o.service << ": no range of a new capture before the end\n";
       }
     }
+    if (!opt.display.browser.empty())
+      std::cout << display_text(display_latency, opt.display.browser);
     std::cout << thermovis::cli::errors_text(errors);
   }
   return latency.frames > 0 ? 0 : 2;
@@ -190,6 +231,15 @@ THERMOVIS_COMMAND("bench pipeline",
                         ->delimiter(',')
                         ->check(
                             CLI::IsMember({"bridge", "rectify-fuse", "detect", "match", "range"}));
+                    app.add_flag("--view", opt->view,
+                                 "also run the live display (thermovis-view), as `run --view`");
+                    app.add_option("--view-port", opt->display.port, "HTTP port of the display")
+                        ->capture_default_str()
+                        ->check(CLI::Range(1, 65535));
+                    app.add_option("--browser", opt->display.browser,
+                                   "with the display: this Chromium-like browser, headless, on "
+                                   "its page; reports capture-to-pixels latency (e.g. "
+                                   "/usr/bin/chromium)");
                     return [opt] { return run_bench(*opt); };
                   });
 

@@ -6,9 +6,9 @@
 #include <thread>
 
 #include "command.hpp"
+#include "display_session.hpp"
 #include "pipeline_session.hpp"
 #include "thermovis/node/service.hpp"
-#include "thermovis/process/process_group.hpp"
 
 namespace {
 
@@ -22,29 +22,6 @@ struct Options {
   int view_port = 8090;
 };
 
-// thermovis-view beside the pipeline, in a process group of its own (restarted if it exits), so
-// the pipeline's manifest stays the same with or without a display. It reads frames, so it is
-// stopped before the pipeline (a reader must be gone before the writers of the frames it holds).
-std::unique_ptr<thermovis::process::ProcessGroup> start_viewer(const Options& opt) {
-  const auto vars = thermovis::supervisor::default_vars(
-      opt.session.domain,
-      opt.session.profile.empty() ? thermovis::transport::kHostProfile : opt.session.profile, "");
-  thermovis::process::ServiceSpec spec;
-  spec.name = "view";
-  spec.command = {vars.at("bin") + "/thermovis-view",
-                  "--domain",
-                  vars.at("domain"),
-                  "--profile",
-                  vars.at("profile"),
-                  "--port",
-                  std::to_string(opt.view_port)};
-  thermovis::process::Manifest manifest{"view", {spec}};
-  auto group = std::make_unique<thermovis::process::ProcessGroup>(
-      manifest, thermovis::process::ProcessGroupOptions{{}, opt.session.log_dir, {}});
-  group->start_all();
-  return group;
-}
-
 int run_pipeline(Options& opt) {
   thermovis::node::install_stop_handlers();
   PipelineSession session(opt.session);
@@ -53,12 +30,13 @@ int run_pipeline(Options& opt) {
     std::cout << "thermovis run: pipeline started on DDS domain " << opt.session.domain
               << ", logs in " << opt.session.log_dir << " (Ctrl-C stops)" << std::endl;
   }
-  std::unique_ptr<thermovis::process::ProcessGroup> viewer;
+  std::unique_ptr<thermovis::cli::DisplaySession> viewer;
   if (opt.view) {
-    viewer = start_viewer(opt);
+    viewer = std::make_unique<thermovis::cli::DisplaySession>(
+        opt.session, thermovis::cli::DisplayOptions{opt.view_port, ""});
     // On stderr with --json, so that stdout stays JSON lines.
     (opt.json ? std::cerr : std::cout)
-        << "thermovis run: live display at http://127.0.0.1:" << opt.view_port << "/" << std::endl;
+        << "thermovis run: live display at " << viewer->url() << std::endl;
   }
   const auto start = std::chrono::steady_clock::now();
   while (!thermovis::node::stop_requested()) {
@@ -73,7 +51,7 @@ int run_pipeline(Options& opt) {
     if (viewer) viewer->poll();
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
-  if (viewer) viewer->stop_all();
+  if (viewer) viewer->stop();
   session.stop();
   const auto latency = session.latency();
   const auto errors = session.errors();

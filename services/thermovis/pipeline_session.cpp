@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <nlohmann/json.hpp>
@@ -33,21 +34,28 @@ double wall_seconds() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
 
-// User + system CPU seconds and resident bytes of a process; false when it is gone.
-bool read_process_usage(int pid, double& cpu_s, double& rss_bytes) {
-  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
+// The fields of /proc/<pid>/stat after the command name: field n of stat(5) is f[n - 3].
+bool read_stat(const std::string& pid, std::vector<std::string>& f) {
+  std::ifstream in("/proc/" + pid + "/stat");
   std::string text;
   if (!in || !std::getline(in, text)) return false;
   const auto close = text.rfind(')');  // the command name may hold spaces and parentheses
   if (close == std::string::npos) return false;
   std::istringstream fields(text.substr(close + 2));
-  std::vector<std::string> f;
+  f.clear();
   for (std::string item; fields >> item;) f.push_back(item);
-  // After the name: state is field 3 of stat(5), so field n is f[n - 3].
-  if (f.size() < 22) return false;
-  const double ticks = static_cast<double>(sysconf(_SC_CLK_TCK));
-  cpu_s = (std::stod(f[14 - 3]) + std::stod(f[15 - 3])) / ticks;
-  rss_bytes = std::stod(f[24 - 3]) * static_cast<double>(sysconf(_SC_PAGESIZE));
+  return f.size() >= 22;
+}
+
+const double kTicks = static_cast<double>(sysconf(_SC_CLK_TCK));
+const double kPageBytes = static_cast<double>(sysconf(_SC_PAGESIZE));
+
+// User + system CPU seconds and resident bytes of a process; false when it is gone.
+bool read_process_usage(int pid, double& cpu_s, double& rss_bytes) {
+  std::vector<std::string> f;
+  if (!read_stat(std::to_string(pid), f)) return false;
+  cpu_s = (std::stod(f[14 - 3]) + std::stod(f[15 - 3])) / kTicks;
+  rss_bytes = std::stod(f[24 - 3]) * kPageBytes;
   return true;
 }
 
@@ -58,6 +66,26 @@ std::string fixed(double value, int digits) {
 }
 
 }  // namespace
+
+bool process_group_usage(int pgid, double& cpu_s, double& rss_bytes) {
+  cpu_s = rss_bytes = 0;
+  bool any = false;
+  std::error_code error;
+  std::vector<std::string> f;
+  for (auto it = std::filesystem::directory_iterator("/proc", error);
+       !error && it != std::filesystem::directory_iterator(); it.increment(error)) {
+    const std::string pid = it->path().filename().string();
+    if (pid.find_first_not_of("0123456789") != std::string::npos) continue;
+    if (!read_stat(pid, f) || std::stoll(f[5 - 3]) != pgid) continue;
+    // Its own time and that of its children it has waited for (a browser's exited helpers).
+    cpu_s += (std::stod(f[14 - 3]) + std::stod(f[15 - 3]) + std::stod(f[16 - 3]) +
+              std::stod(f[17 - 3])) /
+             kTicks;
+    rss_bytes += std::stod(f[24 - 3]) * kPageBytes;
+    any = true;
+  }
+  return any;
+}
 
 void add_session_options(CLI::App& app, SessionOptions& s) {
   if (const char* env = std::getenv("THERMOVIS_DOMAIN"); env != nullptr && *env != '\0')

@@ -71,6 +71,11 @@ struct ProcessCpu {
   double rss_mb = 0.0;       // resident memory now
 };
 
+// User + system CPU seconds (with its reaped children's) and resident bytes of every live process
+// of process group `pgid`: a service and its helpers (process::ProcessGroup starts each service
+// in a group of its own). False when the group has no process.
+bool process_group_usage(int pgid, double& cpu_s, double& rss_bytes);
+
 // A service killed on purpose (SIGKILL) during a session, and how long the ranges stopped.
 struct ServiceOutage {
   std::string service;
