@@ -20,6 +20,22 @@ transport::TopicQos fused_reader_qos() {
 
 bool subscribed(const transport::WriterBase& writer) { return writer.counters().matched > 0; }
 
+// Publishes each sample taken from `in` on `out` in its ROS 2 form (counted in `published`), or
+// drops it (counted in `unsubscribed`) while `out` has no ROS reader.
+template <class T, class Ros>
+void forward(transport::Reader<T>& in, transport::Writer<Ros>& out, const std::string& frame_id,
+             std::uint64_t& published, std::uint64_t& unsubscribed) {
+  auto samples = in.take();
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    if (!subscribed(out)) {
+      ++unsubscribed;
+      continue;
+    }
+    out.write(to_ros(samples[i], frame_id));
+    ++published;
+  }
+}
+
 }  // namespace
 
 Ros2BridgeNode::Ros2BridgeNode(transport::Participant& pipeline, transport::Participant& ros,
@@ -80,27 +96,12 @@ void Ros2BridgeNode::forward_fused() {
 }
 
 void Ros2BridgeNode::forward_ranges() {
-  auto arrays = ranges_in_.take();
-  for (std::size_t i = 0; i < arrays.size(); ++i) {
-    if (!subscribed(ranges_out_)) {
-      ++stats_.unsubscribed;
-      continue;
-    }
-    ranges_out_.write(to_ros(arrays[i], config_.ranges_frame_id));
-    ++stats_.ranges;
-  }
+  forward(ranges_in_, ranges_out_, config_.ranges_frame_id, stats_.ranges, stats_.unsubscribed);
 }
 
 void Ros2BridgeNode::forward_detections() {
-  auto arrays = detections_in_.take();
-  for (std::size_t i = 0; i < arrays.size(); ++i) {
-    if (!subscribed(detections_out_)) {
-      ++stats_.unsubscribed;
-      continue;
-    }
-    detections_out_.write(to_ros(arrays[i], config_.image_frame_id));
-    ++stats_.detections;
-  }
+  forward(detections_in_, detections_out_, config_.image_frame_id, stats_.detections,
+          stats_.unsubscribed);
 }
 
 }  // namespace thermovis::ros2_bridge

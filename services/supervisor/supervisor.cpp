@@ -13,6 +13,7 @@
 #include "thermovis/transport/qos.hpp"
 #include "thermovis/transport/shared_memory.hpp"
 #include "thermovis/transport/topics.hpp"
+#include "thermovis/util/enum_names.hpp"
 
 namespace thermovis::supervisor {
 namespace {
@@ -27,24 +28,15 @@ void log_event(const std::string& service, const std::string& event) {
   std::cerr << "thermovis-supervisor: " << service << ": " << event << std::endl;
 }
 
+constexpr util::EnumName<Stage> kStageNames[] = {{STAGE_BRIDGE, "bridge"},
+                                                 {STAGE_RECTIFY_FUSE, "rectify-fuse"},
+                                                 {STAGE_DETECT, "detect"},
+                                                 {STAGE_MATCH, "match"},
+                                                 {STAGE_RANGE, "range"}};
+
 }  // namespace
 
-const char* stage_name(Stage stage) {
-  switch (stage) {
-    case STAGE_BRIDGE:
-      return "bridge";
-    case STAGE_RECTIFY_FUSE:
-      return "rectify-fuse";
-    case STAGE_DETECT:
-      return "detect";
-    case STAGE_MATCH:
-      return "match";
-    case STAGE_RANGE:
-      return "range";
-    default:
-      return "none";
-  }
-}
+const char* stage_name(Stage stage) { return util::name_of(kStageNames, stage, "none"); }
 
 Supervisor::Supervisor(transport::Participant& participant, process::Manifest manifest,
                        SupervisorConfig config)

@@ -22,6 +22,7 @@
 #include "thermovis/runtime/rig_io.hpp"
 #include "thermovis/runtime/scene_io.hpp"
 #include "thermovis/sim/simulated_rig.hpp"
+#include "thermovis/util/enum_names.hpp"
 
 namespace {
 
@@ -45,15 +46,13 @@ struct Options {
 // The ranging modes of Table 6 and the pipeline's band choice for each (fused: both pairs
 // matched and their ranges combined, the pipeline's default).
 enum class Mode { visible, infrared, fused };
-std::string mode_name(Mode mode) {
-  return mode == Mode::visible ? "visible" : mode == Mode::infrared ? "infrared" : "fused";
-}
+constexpr thermovis::util::EnumName<Mode> kModeNames[] = {
+    {Mode::visible, "visible"}, {Mode::infrared, "infrared"}, {Mode::fused, "fused"}};
+std::string mode_name(Mode mode) { return thermovis::util::name_of(kModeNames, mode, "fused"); }
 Mode parse_mode(const std::string& name) {
-  if (name == "visible") return Mode::visible;
-  if (name == "infrared") return Mode::infrared;
-  if (name == "fused") return Mode::fused;
-  throw std::invalid_argument("unknown ranging mode '" + name +
-                              "' (expected visible, infrared or fused)");
+  if (const auto mode = thermovis::util::parse(kModeNames, name)) return *mode;
+  throw std::invalid_argument("unknown ranging mode '" + name + "' (expected " +
+                              thermovis::util::join_names(kModeNames, ", ", " or ") + ")");
 }
 pl::BandChoice band_choice(Mode mode) {
   return mode == Mode::visible    ? pl::BandChoice::visible

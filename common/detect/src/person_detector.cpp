@@ -7,45 +7,38 @@
 #include <optional>
 #include <stdexcept>
 
+#include "thermovis/util/enum_names.hpp"
+
 namespace thermovis::detect {
 
+namespace {
+
+constexpr util::EnumName<Band> kBandNames[] = {
+    {Band::infrared, "infrared"}, {Band::visible, "visible"}, {Band::fused, "fused"}};
+
+constexpr util::EnumName<VisibleMethod> kVisibleMethodNames[] = {
+    {VisibleMethod::hog, "hog"},
+    {VisibleMethod::haar_fullbody, "haar-fullbody"},
+    {VisibleMethod::haar_upperbody, "haar-upperbody"}};
+
+}  // namespace
+
 Band parse_band(const std::string& name) {
-  if (name == "infrared") return Band::infrared;
-  if (name == "visible") return Band::visible;
-  if (name == "fused") return Band::fused;
-  throw std::invalid_argument("band '" + name + "': expected infrared, visible or fused");
+  if (const auto band = util::parse(kBandNames, name)) return *band;
+  throw std::invalid_argument("band '" + name + "': expected " +
+                              util::join_names(kBandNames, ", ", " or "));
 }
 
-std::string band_name(Band band) {
-  switch (band) {
-    case Band::infrared:
-      return "infrared";
-    case Band::visible:
-      return "visible";
-    case Band::fused:
-      return "fused";
-  }
-  return "?";
-}
+std::string band_name(Band band) { return util::name_of(kBandNames, band, "?"); }
 
 VisibleMethod parse_visible_method(const std::string& name) {
-  if (name == "hog") return VisibleMethod::hog;
-  if (name == "haar-fullbody") return VisibleMethod::haar_fullbody;
-  if (name == "haar-upperbody") return VisibleMethod::haar_upperbody;
-  throw std::invalid_argument("visible detector '" + name +
-                              "': expected hog, haar-fullbody or haar-upperbody");
+  if (const auto method = util::parse(kVisibleMethodNames, name)) return *method;
+  throw std::invalid_argument("visible detector '" + name + "': expected " +
+                              util::join_names(kVisibleMethodNames, ", ", " or "));
 }
 
 std::string visible_method_name(VisibleMethod method) {
-  switch (method) {
-    case VisibleMethod::hog:
-      return "hog";
-    case VisibleMethod::haar_fullbody:
-      return "haar-fullbody";
-    case VisibleMethod::haar_upperbody:
-      return "haar-upperbody";
-  }
-  return "?";
+  return util::name_of(kVisibleMethodNames, method, "?");
 }
 
 struct PersonDetector::Impl {

@@ -8,9 +8,18 @@
 #include <opencv2/imgproc.hpp>
 
 #include "thermovis/display/frame_stamp.hpp"
+#include "thermovis/util/enum_names.hpp"
 
 namespace thermovis::display {
 namespace {
+
+constexpr util::EnumName<View> kViewNames[] = {{View::fused, "fused"},
+                                               {View::visible, "visible"},
+                                               {View::infrared, "infrared"},
+                                               {View::side_by_side, "side"}};
+
+constexpr util::EnumName<std::uint32_t> kBandNames[] = {
+    {kBandVisible, "visible"}, {kBandInfrared, "infrared"}, {kBandFused, "fused"}};
 
 constexpr int kFont = cv::FONT_HERSHEY_SIMPLEX;
 
@@ -138,39 +147,11 @@ cv::Mat with_header(const cv::Mat& body, const Status& status) {
 
 }  // namespace
 
-const char* to_string(View view) {
-  switch (view) {
-    case View::fused:
-      return "fused";
-    case View::visible:
-      return "visible";
-    case View::infrared:
-      return "infrared";
-    case View::side_by_side:
-      return "side";
-  }
-  return "fused";
-}
+const char* to_string(View view) { return util::name_of(kViewNames, view, "fused"); }
 
-std::optional<View> parse_view(const std::string& name) {
-  for (View v : {View::fused, View::visible, View::infrared, View::side_by_side}) {
-    if (name == to_string(v)) return v;
-  }
-  return std::nullopt;
-}
+std::optional<View> parse_view(const std::string& name) { return util::parse(kViewNames, name); }
 
-const char* band_name(std::uint32_t band) {
-  switch (band) {
-    case kBandVisible:
-      return "visible";
-    case kBandInfrared:
-      return "infrared";
-    case kBandFused:
-      return "fused";
-    default:
-      return "-";
-  }
-}
+const char* band_name(std::uint32_t band) { return util::name_of(kBandNames, band, "-"); }
 
 std::string target_caption(const Target& t) {
   char text[128];

@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "thermovis/enhance/visible_contrast.hpp"
+#include "thermovis/util/enum_names.hpp"
 
 namespace thermovis::fuse {
 namespace {
@@ -132,33 +133,32 @@ void fuse_luminance(const cv::Mat& infrared, const cv::Mat& visible, const Fusio
 
 }  // namespace
 
+namespace {
+
+constexpr util::EnumName<FusionMethod> kMethodNames[] = {
+    {FusionMethod::vsmwls, "vsmwls"},
+    {FusionMethod::vsmwls_paper, "vsmwls-paper"},
+    {FusionMethod::fast, "fast"}};
+
+constexpr util::EnumName<ColourMode> kColourNames[] = {{ColourMode::per_channel, "rgb"},
+                                                       {ColourMode::luminance, "luminance"}};
+
+}  // namespace
+
 std::string_view method_name(FusionMethod method) {
-  switch (method) {
-    case FusionMethod::vsmwls:
-      return "vsmwls";
-    case FusionMethod::vsmwls_paper:
-      return "vsmwls-paper";
-    case FusionMethod::fast:
-      return "fast";
-  }
-  return "?";
+  return util::name_of(kMethodNames, method, "?");
 }
 
 std::optional<FusionMethod> method_from_name(std::string_view name) {
-  for (auto m : {FusionMethod::vsmwls, FusionMethod::vsmwls_paper, FusionMethod::fast}) {
-    if (method_name(m) == name) return m;
-  }
-  return std::nullopt;
+  return util::parse(kMethodNames, name);
 }
 
 std::string_view colour_name(ColourMode mode) {
-  return mode == ColourMode::per_channel ? "rgb" : "luminance";
+  return util::name_of(kColourNames, mode, "luminance");
 }
 
 std::optional<ColourMode> colour_from_name(std::string_view name) {
-  if (name == "rgb") return ColourMode::per_channel;
-  if (name == "luminance") return ColourMode::luminance;
-  return std::nullopt;
+  return util::parse(kColourNames, name);
 }
 
 cv::Mat fuse(const cv::Mat& infrared, const cv::Mat& visible, const FusionOptions& options) {

@@ -7,28 +7,26 @@
 #include <stdexcept>
 #include <vector>
 
+#include "thermovis/util/enum_names.hpp"
+
 namespace thermovis::match {
 
+namespace {
+
+constexpr util::EnumName<RegionStatus> kRegionStatusNames[] = {
+    {RegionStatus::ok, "ok"},
+    {RegionStatus::empty_region, "empty_region"},
+    {RegionStatus::at_image_edge, "at_image_edge"},
+    {RegionStatus::flat, "flat"},
+    {RegionStatus::ambiguous, "ambiguous"},
+    {RegionStatus::low_correlation, "low_correlation"},
+    {RegionStatus::no_convergence, "no_convergence"},
+    {RegionStatus::not_aligned, "not_aligned"}};
+
+}  // namespace
+
 std::string region_status_name(RegionStatus status) {
-  switch (status) {
-    case RegionStatus::ok:
-      return "ok";
-    case RegionStatus::empty_region:
-      return "empty_region";
-    case RegionStatus::at_image_edge:
-      return "at_image_edge";
-    case RegionStatus::flat:
-      return "flat";
-    case RegionStatus::ambiguous:
-      return "ambiguous";
-    case RegionStatus::low_correlation:
-      return "low_correlation";
-    case RegionStatus::no_convergence:
-      return "no_convergence";
-    case RegionStatus::not_aligned:
-      return "not_aligned";
-  }
-  return "unknown";
+  return util::name_of(kRegionStatusNames, status, "unknown");
 }
 
 namespace {

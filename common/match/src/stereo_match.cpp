@@ -11,34 +11,32 @@
 #include <set>
 #include <stdexcept>
 
+#include "thermovis/util/enum_names.hpp"
+
 namespace thermovis::match {
 
+namespace {
+
+constexpr util::EnumName<Method> kMethodNames[] = {{Method::orb, "orb"},
+                                                   {Method::akaze, "akaze"},
+                                                   {Method::sift, "sift"},
+                                                   {Method::ncc, "ncc"},
+                                                   {Method::sgbm, "sgbm"}};
+
+}  // namespace
+
 Method parse_method(const std::string& name) {
-  for (Method m : all_methods()) {
-    if (method_name(m) == name) return m;
-  }
-  throw std::invalid_argument("unknown matching method '" + name +
-                              "' (expected orb, akaze, sift, ncc or sgbm)");
+  if (const auto method = util::parse(kMethodNames, name)) return *method;
+  throw std::invalid_argument("unknown matching method '" + name + "' (expected " +
+                              util::join_names(kMethodNames, ", ", " or ") + ")");
 }
 
-std::string method_name(Method method) {
-  switch (method) {
-    case Method::orb:
-      return "orb";
-    case Method::akaze:
-      return "akaze";
-    case Method::sift:
-      return "sift";
-    case Method::ncc:
-      return "ncc";
-    case Method::sgbm:
-      return "sgbm";
-  }
-  return "unknown";
-}
+std::string method_name(Method method) { return util::name_of(kMethodNames, method, "unknown"); }
 
 std::vector<Method> all_methods() {
-  return {Method::orb, Method::akaze, Method::sift, Method::ncc, Method::sgbm};
+  std::vector<Method> methods;
+  for (const auto& entry : kMethodNames) methods.push_back(entry.value);
+  return methods;
 }
 
 namespace {

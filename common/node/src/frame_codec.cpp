@@ -76,6 +76,14 @@ std::size_t packed_step(const Frame& f) {
   }
 }
 
+// The frames' pixel formats and the OpenCV type of each, for both directions.
+struct PixelFormatType {
+  PixelFormat format;
+  int cv_type;
+};
+constexpr PixelFormatType kPixelFormatTypes[] = {
+    {PIXEL_FORMAT_BGR8, CV_8UC3}, {PIXEL_FORMAT_MONO8, CV_8UC1}, {PIXEL_FORMAT_MONO16, CV_16UC1}};
+
 template <class Array>
 void* eye_data(const Array& left, const Array& right, Eye eye) {
   return const_cast<void*>(static_cast<const void*>(eye == Eye::left ? left.data() : right.data()));
@@ -84,29 +92,15 @@ void* eye_data(const Array& left, const Array& right, Eye eye) {
 }  // namespace
 
 int cv_type_of(PixelFormat format) {
-  switch (format) {
-    case PIXEL_FORMAT_BGR8:
-      return CV_8UC3;
-    case PIXEL_FORMAT_MONO8:
-      return CV_8UC1;
-    case PIXEL_FORMAT_MONO16:
-      return CV_16UC1;
-    default:
-      throw FrameError("unknown pixel format " + std::to_string(format));
-  }
+  for (const auto& entry : kPixelFormatTypes)
+    if (entry.format == format) return entry.cv_type;
+  throw FrameError("unknown pixel format " + std::to_string(format));
 }
 
 PixelFormat pixel_format_of(int cv_type) {
-  switch (cv_type) {
-    case CV_8UC3:
-      return PIXEL_FORMAT_BGR8;
-    case CV_8UC1:
-      return PIXEL_FORMAT_MONO8;
-    case CV_16UC1:
-      return PIXEL_FORMAT_MONO16;
-    default:
-      throw FrameError("no pixel format for OpenCV type " + std::to_string(cv_type));
-  }
+  for (const auto& entry : kPixelFormatTypes)
+    if (entry.cv_type == cv_type) return entry.format;
+  throw FrameError("no pixel format for OpenCV type " + std::to_string(cv_type));
 }
 
 namespace {

@@ -5,20 +5,18 @@
 #include <stdexcept>
 
 #include "thermovis/rectify/stereo_geometry.hpp"
+#include "thermovis/util/enum_names.hpp"
 
 namespace thermovis::pipeline {
 
-std::string band_name(Band band) {
-  switch (band) {
-    case Band::visible:
-      return "visible";
-    case Band::infrared:
-      return "infrared";
-    case Band::fused:
-      return "fused";
-  }
-  return "unknown";
-}
+namespace {
+
+constexpr util::EnumName<Band> kBandNames[] = {
+    {Band::visible, "visible"}, {Band::infrared, "infrared"}, {Band::fused, "fused"}};
+
+}  // namespace
+
+std::string band_name(Band band) { return util::name_of(kBandNames, band, "unknown"); }
 
 range::RangingGeometry PipelineGeometry::ranging(Band band) const {
   const PairGeometry& pair = band == Band::infrared ? infrared : visible;

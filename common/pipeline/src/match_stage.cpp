@@ -6,8 +6,16 @@
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
+#include "thermovis/util/enum_names.hpp"
+
 namespace thermovis::pipeline {
 namespace {
+
+constexpr util::EnumName<BandChoice> kBandChoiceNames[] = {{BandChoice::visible, "visible"},
+                                                           {BandChoice::infrared, "infrared"},
+                                                           {BandChoice::fused, "fused"},
+                                                           {BandChoice::automatic, "auto"},
+                                                           {BandChoice::both, "both"}};
 
 // Counts of the region both eyes' searches look at, stretched linearly to 8 bits between the
 // left region's 0.5 and 99.5 percentiles (the same mapping for both eyes).
@@ -78,12 +86,9 @@ double median_disparity(const match::MatchResult& result) {
 }  // namespace
 
 BandChoice parse_band_choice(const std::string& name) {
-  if (name == "visible") return BandChoice::visible;
-  if (name == "infrared") return BandChoice::infrared;
-  if (name == "fused") return BandChoice::fused;
-  if (name == "auto") return BandChoice::automatic;
-  if (name == "both") return BandChoice::both;
-  throw std::invalid_argument("unknown band '" + name + "' (visible, infrared, fused, auto, both)");
+  if (const auto band = util::parse(kBandChoiceNames, name)) return *band;
+  throw std::invalid_argument("unknown band '" + name + "' (" +
+                              util::join_names(kBandChoiceNames, ", ", ", ") + ")");
 }
 
 std::pair<double, double> typical_height_m(const std::string& label) {

@@ -3,13 +3,22 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "thermovis/util/enum_names.hpp"
+
 namespace thermovis::pipeline {
 
+namespace {
+
+constexpr util::EnumName<RangeEstimate> kRangeEstimateNames[] = {{RangeEstimate::points, "points"},
+                                                                 {RangeEstimate::region, "region"},
+                                                                 {RangeEstimate::both, "both"}};
+
+}  // namespace
+
 RangeEstimate parse_range_estimate(const std::string& name) {
-  if (name == "points") return RangeEstimate::points;
-  if (name == "region") return RangeEstimate::region;
-  if (name == "both") return RangeEstimate::both;
-  throw std::invalid_argument("unknown range estimate '" + name + "' (points, region, both)");
+  if (const auto estimate = util::parse(kRangeEstimateNames, name)) return *estimate;
+  throw std::invalid_argument("unknown range estimate '" + name + "' (" +
+                              util::join_names(kRangeEstimateNames, ", ", ", ") + ")");
 }
 
 RangeStage::RangeStage(const PipelineGeometry& geometry, const RangeStageOptions& options)

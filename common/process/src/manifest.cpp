@@ -53,15 +53,7 @@ std::string substitute(const std::string& text, const std::map<std::string, std:
 }
 
 const char* to_string(RestartPolicy policy) {
-  switch (policy) {
-    case RestartPolicy::always:
-      return "always";
-    case RestartPolicy::on_failure:
-      return "on-failure";
-    case RestartPolicy::never:
-      return "never";
-  }
-  return "?";
+  return util::name_of(kRestartPolicyNames, policy, "?");
 }
 
 }  // namespace thermovis::process

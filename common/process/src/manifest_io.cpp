@@ -66,16 +66,12 @@ Manifest parse_manifest(const std::string& yaml_text, const std::string& src) {
     }
     if (node["restart"]) {
       const std::string policy = as_string(src, node["restart"], ctx + ".restart");
-      if (policy == "always") {
-        spec.restart = RestartPolicy::always;
-      } else if (policy == "on-failure") {
-        spec.restart = RestartPolicy::on_failure;
-      } else if (policy == "never") {
-        spec.restart = RestartPolicy::never;
-      } else {
+      const auto restart = util::parse(kRestartPolicyNames, policy);
+      if (!restart) {
         throw ConfigError(where(src, node["restart"]) + ": " + ctx + ".restart: '" + policy +
-                          "' is not one of always, on-failure, never");
+                          "' is not one of " + util::join_names(kRestartPolicyNames, ", ", ", "));
       }
+      spec.restart = *restart;
     }
     if (node["depends_on"]) {
       for (const auto& dep : runtime::as_list(src, node["depends_on"], ctx + ".depends_on"))

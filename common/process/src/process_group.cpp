@@ -14,10 +14,18 @@
 #include <stdexcept>
 #include <thread>
 
+#include "thermovis/util/enum_names.hpp"
+
 extern char** environ;
 
 namespace thermovis::process {
 namespace {
+
+constexpr util::EnumName<ServiceState> kServiceStateNames[] = {
+    {ServiceState::stopped, "stopped"},
+    {ServiceState::running, "running"},
+    {ServiceState::backoff, "restarting"},
+    {ServiceState::failed, "failed"}};
 
 using Seconds = std::chrono::duration<double>;
 
@@ -36,19 +44,7 @@ std::string describe_wait_status(int wait_status, int& code) {
 
 }  // namespace
 
-const char* to_string(ServiceState state) {
-  switch (state) {
-    case ServiceState::stopped:
-      return "stopped";
-    case ServiceState::running:
-      return "running";
-    case ServiceState::backoff:
-      return "restarting";
-    case ServiceState::failed:
-      return "failed";
-  }
-  return "?";
-}
+const char* to_string(ServiceState state) { return util::name_of(kServiceStateNames, state, "?"); }
 
 ProcessGroup::ProcessGroup(Manifest manifest, ProcessGroupOptions options)
     : options_(std::move(options)) {

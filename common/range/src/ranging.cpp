@@ -6,9 +6,20 @@
 #include <random>
 #include <sstream>
 
+#include "thermovis/util/enum_names.hpp"
+
 namespace thermovis::range {
 
 namespace {
+
+constexpr util::EnumName<RangeStatus> kStatusNames[] = {
+    {RangeStatus::ok, "ok"},
+    {RangeStatus::empty_box, "empty_box"},
+    {RangeStatus::box_outside_image, "box_outside_image"},
+    {RangeStatus::target_at_image_edge, "target_at_image_edge"},
+    {RangeStatus::no_matches, "no_matches"},
+    {RangeStatus::too_few_points, "too_few_points"},
+    {RangeStatus::no_region, "no_region"}};
 
 // A correspondence's angles: alpha of each eye's column, beta of the row; false when one is
 // outside the grid's domain.
@@ -123,23 +134,7 @@ bool project_point(const camera::RectifiedCamera& grid, double baseline_m, const
 }
 
 std::string status_name(RangeStatus status) {
-  switch (status) {
-    case RangeStatus::ok:
-      return "ok";
-    case RangeStatus::empty_box:
-      return "empty_box";
-    case RangeStatus::box_outside_image:
-      return "box_outside_image";
-    case RangeStatus::target_at_image_edge:
-      return "target_at_image_edge";
-    case RangeStatus::no_matches:
-      return "no_matches";
-    case RangeStatus::too_few_points:
-      return "too_few_points";
-    case RangeStatus::no_region:
-      return "no_region";
-  }
-  return "unknown";
+  return util::name_of(kStatusNames, status, "unknown");
 }
 
 namespace {

@@ -2,43 +2,32 @@
 
 #include <zlib.h>
 
+#include "thermovis/util/enum_names.hpp"
+
 namespace thermovis::record::mcap_format {
 
+namespace {
+
+constexpr util::EnumName<std::uint8_t> kOpcodeNames[] = {{kHeader, "Header"},
+                                                         {kFooter, "Footer"},
+                                                         {kSchema, "Schema"},
+                                                         {kChannel, "Channel"},
+                                                         {kMessage, "Message"},
+                                                         {kChunk, "Chunk"},
+                                                         {kMessageIndex, "Message Index"},
+                                                         {kChunkIndex, "Chunk Index"},
+                                                         {kAttachment, "Attachment"},
+                                                         {kAttachmentIndex, "Attachment Index"},
+                                                         {kStatistics, "Statistics"},
+                                                         {kMetadata, "Metadata"},
+                                                         {kMetadataIndex, "Metadata Index"},
+                                                         {kSummaryOffset, "Summary Offset"},
+                                                         {kDataEnd, "Data End"}};
+
+}  // namespace
+
 const char* opcode_name(std::uint8_t opcode) {
-  switch (opcode) {
-    case kHeader:
-      return "Header";
-    case kFooter:
-      return "Footer";
-    case kSchema:
-      return "Schema";
-    case kChannel:
-      return "Channel";
-    case kMessage:
-      return "Message";
-    case kChunk:
-      return "Chunk";
-    case kMessageIndex:
-      return "Message Index";
-    case kChunkIndex:
-      return "Chunk Index";
-    case kAttachment:
-      return "Attachment";
-    case kAttachmentIndex:
-      return "Attachment Index";
-    case kStatistics:
-      return "Statistics";
-    case kMetadata:
-      return "Metadata";
-    case kMetadataIndex:
-      return "Metadata Index";
-    case kSummaryOffset:
-      return "Summary Offset";
-    case kDataEnd:
-      return "Data End";
-    default:
-      return opcode >= 0x80 ? "private record" : "unknown record";
-  }
+  return util::name_of(kOpcodeNames, opcode, opcode >= 0x80 ? "private record" : "unknown record");
 }
 
 std::uint32_t crc32(std::uint32_t crc, const void* data, std::size_t size) {

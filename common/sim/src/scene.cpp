@@ -3,8 +3,15 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "thermovis/util/enum_names.hpp"
+
 namespace thermovis::sim {
 namespace {
+
+constexpr util::EnumName<TargetClass> kTargetClassNames[] = {{TargetClass::person, "person"},
+                                                             {TargetClass::car, "car"},
+                                                             {TargetClass::pole, "pole"},
+                                                             {TargetClass::marker, "marker"}};
 
 constexpr double kPi = 3.14159265358979323846;
 
@@ -78,27 +85,12 @@ std::vector<Texture> builtin_textures() {
   };
 }
 
-const char* to_string(TargetClass cls) {
-  switch (cls) {
-    case TargetClass::person:
-      return "person";
-    case TargetClass::car:
-      return "car";
-    case TargetClass::pole:
-      return "pole";
-    case TargetClass::marker:
-      return "marker";
-  }
-  return "unknown";
-}
+const char* to_string(TargetClass cls) { return util::name_of(kTargetClassNames, cls, "unknown"); }
 
 TargetClass target_class_from_string(const std::string& name) {
-  for (TargetClass cls :
-       {TargetClass::person, TargetClass::car, TargetClass::pole, TargetClass::marker}) {
-    if (name == to_string(cls)) return cls;
-  }
+  if (const auto cls = util::parse(kTargetClassNames, name)) return *cls;
   throw std::invalid_argument("unknown target class '" + name +
-                              "' (known: person, car, pole, marker)");
+                              "' (known: " + util::join_names(kTargetClassNames, ", ", ", ") + ")");
 }
 
 int Scene::texture_index(const std::string& texture_name) const {

@@ -9,10 +9,16 @@
 #include "renderer.hpp"
 #include "sensor_noise.hpp"
 #include "static_cache.hpp"
+#include "thermovis/util/enum_names.hpp"
 #include "world.hpp"
 
 namespace thermovis::sim {
 namespace {
+
+constexpr util::EnumName<Slot> kSlotNames[] = {{Slot::visible_left, "visible_left"},
+                                               {Slot::visible_right, "visible_right"},
+                                               {Slot::infrared_left, "infrared_left"},
+                                               {Slot::infrared_right, "infrared_right"}};
 
 using detail::CameraLayers;
 using detail::Hit;
@@ -42,19 +48,7 @@ std::array<const camera::RigCamera*, kSlotCount> slot_cameras(const camera::Rig&
 
 }  // namespace
 
-const char* to_string(Slot slot) {
-  switch (slot) {
-    case Slot::visible_left:
-      return "visible_left";
-    case Slot::visible_right:
-      return "visible_right";
-    case Slot::infrared_left:
-      return "infrared_left";
-    case Slot::infrared_right:
-      return "infrared_right";
-  }
-  return "unknown";
-}
+const char* to_string(Slot slot) { return util::name_of(kSlotNames, slot, "unknown"); }
 
 struct SimulatedRig::Impl {
   camera::Rig rig;

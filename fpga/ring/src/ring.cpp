@@ -12,6 +12,8 @@
 #include <type_traits>
 #include <utility>
 
+#include "thermovis/util/enum_names.hpp"
+
 namespace thermovis::fpga {
 
 static_assert(std::atomic<std::uint64_t>::is_always_lock_free,
@@ -31,6 +33,9 @@ namespace {
 
 constexpr std::uint64_t kPage = 4096;
 constexpr std::uint64_t kImageAlign = 64;
+
+constexpr util::EnumName<RingPixelFormat> kPixelFormatNames[] = {
+    {RingPixelFormat::bgr8, "BGR8"}, {RingPixelFormat::mono16, "MONO16"}};
 
 std::uint64_t round_up(std::uint64_t value, std::uint64_t step) {
   return (value + step - 1) / step * step;
@@ -113,13 +118,7 @@ std::uint8_t* map_and_close(int fd, std::size_t bytes, int protection, const std
 }  // namespace
 
 const char* to_string(RingPixelFormat format) {
-  switch (format) {
-    case RingPixelFormat::bgr8:
-      return "BGR8";
-    case RingPixelFormat::mono16:
-      return "MONO16";
-  }
-  return "unknown";
+  return util::name_of(kPixelFormatNames, format, "unknown");
 }
 
 int cv_type_of(RingPixelFormat format) {

@@ -18,9 +18,8 @@
 #include "thermovis/fpga/remap.hpp"
 #include "thermovis/rectify/elliptical.hpp"
 #include "thermovis/rectify/rig_rectification.hpp"
-#include "thermovis/runtime/rig_io.hpp"
 #include "thermovis/test/compare_alternately.hpp"
-#include "thermovis/test/data.hpp"
+#include "thermovis/test/paper_rig.hpp"
 
 namespace {
 
@@ -39,8 +38,7 @@ const Case& get_case(int index) {
   static std::map<int, Case> cases;
   auto it = cases.find(index);
   if (it != cases.end()) return it->second;
-  static const camera::Rig rig =
-      runtime::load_rig(test::source_root() / "deploy" / "rigs" / "paper.yaml");
+  const camera::Rig& rig = test::paper_rig();
   const bool infrared = index % 2 == 1;
   const auto& cam = rig.camera(infrared ? rig.infrared.left : rig.visible.left);
   Case c;

@@ -22,9 +22,8 @@
 #include "thermovis/fpga/fixed_map.hpp"
 #include "thermovis/fpga/remap.hpp"
 #include "thermovis/rectify/stereo_geometry.hpp"
-#include "thermovis/runtime/rig_io.hpp"
 #include "thermovis/test/compare_alternately.hpp"
-#include "thermovis/test/data.hpp"
+#include "thermovis/test/paper_rig.hpp"
 
 namespace {
 
@@ -41,8 +40,7 @@ struct Case {
 const Case& get_case(int index) {
   static std::array<std::unique_ptr<Case>, 4> cases;
   if (cases[index]) return *cases[index];
-  static const camera::Rig rig =
-      runtime::load_rig(test::source_root() / "deploy" / "rigs" / "paper.yaml");
+  const camera::Rig& rig = test::paper_rig();
   const bool infrared = index % 2 == 1;
   const double scale = index < 2 ? 0.5 : 1.0;
   const auto grid = camera::scaled(

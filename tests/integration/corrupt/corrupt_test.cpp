@@ -56,13 +56,9 @@ class Service {
     participant_ = tv::test::loopback_participant(domain_, "corrupt-test");
     // The geometry rectify-fuse would publish: the services started alone wait for it.
     geometry_ = std::make_unique<tv::node::GeometryPublisher>(*participant_, pipeline_geometry());
-    health_ = std::make_unique<tv::transport::Reader<tv::Health>>(*participant_, topics::kHealth,
-                                                                  tv::transport::state_topic_qos());
-    std::vector<std::string> argv{(tv::test::bin_dir() / executable).string(), "--domain",
-                                  std::to_string(domain_), "--profile",
-                                  tv::transport::kLoopbackProfile};
-    argv.insert(argv.end(), extra.begin(), extra.end());
-    process_ = std::make_unique<ChildProcess>(argv, dir_ / (executable + ".log"));
+    health_ = std::make_unique<tv::test::HealthWatch>(*participant_);
+    process_ = std::make_unique<ChildProcess>(tv::test::service_command(executable, domain_, extra),
+                                              dir_ / (executable + ".log"));
   }
   ~Service() {
     process_.reset();
@@ -72,15 +68,7 @@ class Service {
   // The last health satisfying `ok` within `timeout`.
   std::optional<tv::Health> wait_health(const std::function<bool(const tv::Health&)>& ok,
                                         std::chrono::seconds timeout) {
-    const auto until = std::chrono::steady_clock::now() + timeout;
-    while (std::chrono::steady_clock::now() < until) {
-      health_->wait_for_data(100ms);
-      auto samples = health_->take();
-      for (std::size_t i = 0; i < samples.size(); ++i)
-        if (samples[i].service().to_string() == name_) last_ = samples[i];
-      if (last_ && ok(*last_)) return last_;
-    }
-    return std::nullopt;
+    return health_->wait(name_, ok, timeout);
   }
 
   bool ready(std::chrono::seconds timeout) {
@@ -97,7 +85,8 @@ class Service {
   void expect_named(const std::string& kind, const std::function<void()>& send,
                     const std::string& says) {
     SCOPED_TRACE(kind);
-    const std::uint32_t before = last_ ? last_->errors() : 0;
+    const auto last = health_->last(name_);
+    const std::uint32_t before = last ? last->errors() : 0;
     send();
     const auto health = wait_health([&](const tv::Health& h) { return h.errors() > before; }, 30s);
     ASSERT_TRUE(health) << kind << " was not reported\n" << process_->log();
@@ -124,8 +113,7 @@ class Service {
   std::string name_;
   std::unique_ptr<tv::transport::Participant> participant_;
   std::unique_ptr<tv::node::GeometryPublisher> geometry_;
-  std::unique_ptr<tv::transport::Reader<tv::Health>> health_;
-  std::optional<tv::Health> last_;
+  std::unique_ptr<tv::test::HealthWatch> health_;
   std::unique_ptr<ChildProcess> process_;
 };
 

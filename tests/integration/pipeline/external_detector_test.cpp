@@ -41,11 +41,8 @@ TEST(ExternalDetector, CycloneDetectionsAreRangedByThePipeline) {
   ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
 
   auto service = [&](const std::string& name, std::vector<std::string> extra = {}) {
-    std::vector<std::string> argv{(tv::test::bin_dir() / ("thermovis-" + name)).string(),
-                                  "--domain", std::to_string(domain), "--profile",
-                                  tv::transport::kLoopbackProfile};
-    argv.insert(argv.end(), extra.begin(), extra.end());
-    return std::make_unique<ChildProcess>(argv, dir / (name + ".log"));
+    return std::make_unique<ChildProcess>(
+        tv::test::service_command("thermovis-" + name, domain, extra), dir / (name + ".log"));
   };
   std::vector<std::unique_ptr<ChildProcess>> services;
   // 10 captures a second: the detector's round trip (test -> FIFO -> Cyclone -> match) stays

@@ -52,8 +52,7 @@ class Harness {
     participant_ = tv::test::loopback_participant(domain, "services-test");
     // The geometry rectify-fuse would publish: the services started alone wait for it.
     geometry_ = std::make_unique<tv::node::GeometryPublisher>(*participant_, pipeline_geometry());
-    health_ = std::make_unique<tv::transport::Reader<tv::Health>>(*participant_, topics::kHealth,
-                                                                  tv::transport::state_topic_qos());
+    health_ = std::make_unique<tv::test::HealthWatch>(*participant_);
   }
   ~Harness() {
     processes_.clear();
@@ -61,11 +60,8 @@ class Harness {
   }
 
   ChildProcess& start(const std::string& executable, std::vector<std::string> extra = {}) {
-    std::vector<std::string> argv{(tv::test::bin_dir() / executable).string(), "--domain",
-                                  std::to_string(domain_), "--profile",
-                                  tv::transport::kLoopbackProfile};
-    argv.insert(argv.end(), extra.begin(), extra.end());
-    processes_.push_back(std::make_unique<ChildProcess>(argv, dir_ / (executable + ".log")));
+    processes_.push_back(std::make_unique<ChildProcess>(
+        tv::test::service_command(executable, domain_, extra), dir_ / (executable + ".log")));
     return *processes_.back();
   }
 
@@ -73,17 +69,8 @@ class Harness {
   std::optional<tv::Health> wait_health(const std::string& service,
                                         const std::function<bool(const tv::Health&)>& ok,
                                         std::chrono::seconds timeout) {
-    const auto until = std::chrono::steady_clock::now() + timeout;
-    while (std::chrono::steady_clock::now() < until) {
-      health_->wait_for_data(100ms);
-      auto samples = health_->take();
-      for (std::size_t i = 0; i < samples.size(); ++i)
-        last_[samples[i].service().to_string()] = samples[i];
-      const auto it = last_.find(service);
-      if (it != last_.end() && ok(it->second)) return it->second;
-    }
-    const auto it = last_.find(service);
-    return it == last_.end() ? std::nullopt : std::optional<tv::Health>(it->second);
+    if (auto health = health_->wait(service, ok, timeout)) return health;
+    return health_->last(service);
   }
 
   tv::transport::Participant& participant() { return *participant_; }
@@ -94,8 +81,7 @@ class Harness {
   std::filesystem::path dir_;
   std::unique_ptr<tv::transport::Participant> participant_;
   std::unique_ptr<tv::node::GeometryPublisher> geometry_;
-  std::unique_ptr<tv::transport::Reader<tv::Health>> health_;
-  std::map<std::string, tv::Health> last_;
+  std::unique_ptr<tv::test::HealthWatch> health_;
   std::vector<std::unique_ptr<ChildProcess>> processes_;
 };
 
@@ -486,8 +472,7 @@ TEST(Services, TellSystemdWhenReadyAndPingItsWatchdog) {
   NotifySocket notify(h.dir() / "notify.sock");
   // As systemd starts a Type=notify unit with WatchdogSec=0.4.
   ChildProcess range(
-      {(tv::test::bin_dir() / "thermovis-range").string(), "--domain",
-       std::to_string(tv::test::private_domain()), "--profile", tv::transport::kLoopbackProfile},
+      tv::test::service_command("thermovis-range", tv::test::private_domain()),
       h.dir() / "range.log",
       {{"NOTIFY_SOCKET", (h.dir() / "notify.sock").string()}, {"WATCHDOG_USEC", "400000"}});
   const std::string ready = notify.receive(60s);

@@ -7,22 +7,17 @@
 #include "thermovis/camera/field.hpp"
 #include "thermovis/camera/ocam_io.hpp"
 #include "thermovis/camera/taylor.hpp"
-#include "thermovis/runtime/rig_io.hpp"
 #include "thermovis/test/data.hpp"
+#include "thermovis/test/paper_rig.hpp"
 
 namespace tc = thermovis::camera;
-namespace tr = thermovis::runtime;
 
 namespace {
 
-const tc::TaylorCamera& paper_camera(const std::string& name) {
-  static const tc::Rig rig =
-      tr::load_rig(thermovis::test::source_root() / "deploy/rigs/paper.yaml");
-  return dynamic_cast<const tc::TaylorCamera&>(*rig.camera(name).model);
-}
+using thermovis::test::paper_taylor_camera;
 
 TEST(Taylor, PaperVisibleLeftHasTable1FieldAndDistortion) {
-  const auto f = tc::field_figures(paper_camera("visible.left"));
+  const auto f = tc::field_figures(paper_taylor_camera("visible.left"));
   // Table 1: HFOV 124 deg, distortion -45 %.
   EXPECT_NEAR(f.horizontal_deg, 124.0, 1.0);
   EXPECT_NEAR(100.0 * f.corner_distortion, -45.0, 1.0);
@@ -32,7 +27,7 @@ TEST(Taylor, PaperVisibleLeftHasTable1FieldAndDistortion) {
 
 TEST(Taylor, PaperInfraredHasTable2FocalLengthAndWideField) {
   for (const char* name : {"infrared.left", "infrared.right"}) {
-    const auto f = tc::field_figures(paper_camera(name));
+    const auto f = tc::field_figures(paper_taylor_camera(name));
     EXPECT_NEAR(f.paraxial_focal_px * 14e-3, 6.0, 0.25) << name;  // Table 2: f = 6 mm
     EXPECT_NEAR(f.horizontal_deg, 121.6, 1.5) << name;            // Table 2: HFOV 121.6 deg
   }
@@ -41,7 +36,7 @@ TEST(Taylor, PaperInfraredHasTable2FocalLengthAndWideField) {
 // cam2world then world2cam over every pixel of every paper camera: below 0.01 px.
 TEST(Taylor, RoundTripBelowHundredthPixelOverEveryPixel) {
   for (const char* name : {"visible.left", "visible.right", "infrared.left", "infrared.right"}) {
-    const auto& cam = paper_camera(name);
+    const auto& cam = paper_taylor_camera(name);
     const cv::Size size = cam.image_size();
     double worst = 0.0;
     for (int y = 0; y < size.height; ++y) {
@@ -60,13 +55,13 @@ TEST(Taylor, RoundTripBelowHundredthPixelOverEveryPixel) {
 // The fitted inverse polynomial alone (OCamCalib's world2cam) stays within a bound over the image.
 TEST(Taylor, InversePolynomialErrorIsBoundedOverTheImage) {
   for (const char* name : {"visible.left", "visible.right", "infrared.left", "infrared.right"}) {
-    const auto f = tc::field_figures(paper_camera(name), 1);
+    const auto f = tc::field_figures(paper_taylor_camera(name), 1);
     EXPECT_LT(f.invpol_max_error_px, 0.02) << name;
   }
 }
 
 TEST(Taylor, RejectsRaysOutsideTheField) {
-  const auto& cam = paper_camera("visible.left");
+  const auto& cam = paper_taylor_camera("visible.left");
   Eigen::Vector2d px;
   EXPECT_FALSE(cam.project({0.0, 0.0, -1.0}, px));  // straight behind
   EXPECT_FALSE(cam.project({1.0, 0.0, 0.0}, px));   // 90 deg, beyond the 62 deg half field
@@ -124,7 +119,7 @@ TEST(OcamIo, ReadsOcamCalibFileAndAgreesWithItsInversePolynomial) {
 }
 
 TEST(OcamIo, WriteThenReadGivesTheSameModel) {
-  const auto& original = paper_camera("visible.left").intrinsics();
+  const auto& original = paper_taylor_camera("visible.left").intrinsics();
   std::stringstream text;
   tc::write_ocam_calib_results(original, text);
   const auto back = tc::parse_ocam_calib_results(text, "memory");

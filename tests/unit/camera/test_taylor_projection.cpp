@@ -8,8 +8,7 @@
 
 #include "thermovis/camera/taylor.hpp"
 #include "thermovis/camera/taylor_projection.hpp"
-#include "thermovis/runtime/rig_io.hpp"
-#include "thermovis/test/data.hpp"
+#include "thermovis/test/paper_rig.hpp"
 
 namespace {
 
@@ -43,11 +42,7 @@ namespace {
 namespace tc = thermovis::camera;
 namespace taylor = thermovis::camera::taylor;
 
-const tc::TaylorCamera& paper_camera(const std::string& name) {
-  static const tc::Rig rig =
-      thermovis::runtime::load_rig(thermovis::test::source_root() / "deploy/rigs/paper.yaml");
-  return dynamic_cast<const tc::TaylorCamera&>(*rig.camera(name).model);
-}
+using thermovis::test::paper_taylor_camera;
 
 // Projects `point` with the shared template in Dual, the derivative seeded on point[axis]
 // (axis 0..2) or on polynomial coefficient `coefficient` (axis -1).
@@ -76,7 +71,7 @@ bool project_dual(const tc::TaylorCamera& cam, const Eigen::Vector3d& point, int
 
 TEST(TaylorProjection, ADualScalarGivesTheCameraPixelAndItsDerivatives) {
   for (const char* name : {"visible.left", "infrared.right"}) {
-    const tc::TaylorCamera& cam = paper_camera(name);
+    const tc::TaylorCamera& cam = paper_taylor_camera(name);
     for (const Eigen::Vector3d& point :
          {Eigen::Vector3d(0.3, -0.2, 5.0), Eigen::Vector3d(-4.0, 1.5, 3.0),
           Eigen::Vector3d(2.0, 1.0, 1.5)}) {

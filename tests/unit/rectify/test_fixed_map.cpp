@@ -18,22 +18,15 @@
 #include "thermovis/rectify/elliptical.hpp"
 #include "thermovis/rectify/rig_rectification.hpp"
 #include "thermovis/rectify/stereo_geometry.hpp"
-#include "thermovis/runtime/rig_io.hpp"
 #include "thermovis/test/data.hpp"
+#include "thermovis/test/paper_rig.hpp"
 
 namespace {
 
 using namespace thermovis;
 
-const camera::Rig& paper_rig() {
-  static const camera::Rig rig =
-      runtime::load_rig(test::source_root() / "deploy" / "rigs" / "paper.yaml");
-  return rig;
-}
-
-const camera::TaylorCamera& taylor_of(const std::string& name) {
-  return dynamic_cast<const camera::TaylorCamera&>(*paper_rig().camera(name).model);
-}
+using test::paper_rig;
+using test::paper_taylor_camera;
 
 cv::Mat random_image(cv::Size size, int type, int max_value, unsigned seed) {
   cv::Mat image(size, type);
@@ -244,7 +237,8 @@ const RigTable& rig_table(int index) {
   } else {
     t.name = camera + " elliptical";
     t.table = fpga::FixedPointMap::from_float(
-        rectify::build_elliptical_map(rectify::fit_elliptical_model(taylor_of(camera)).model),
+        rectify::build_elliptical_map(
+            rectify::fit_elliptical_model(paper_taylor_camera(camera)).model),
         source);
   }
   return tables.emplace(index, std::move(t)).first->second;
@@ -468,7 +462,7 @@ TEST(FastRemap, RejectsBadRowsAndImagesWithAMessage) {
 class QuarterTableOfPaperModel : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(QuarterTableOfPaperModel, StoresAQuarterAndRemapsIdentically) {
-  const auto& cam = taylor_of(GetParam());
+  const auto& cam = paper_taylor_camera(GetParam());
   const auto fit = rectify::fit_elliptical_model(cam);
   const auto full =
       fpga::FixedPointMap::from_float(rectify::build_elliptical_map(fit.model), cam.image_size());
@@ -523,7 +517,7 @@ TEST(QuarterTable, RefusesAnAsymmetricMapWithTheReason) {
 }
 
 TEST(TableExport, HexAndBinRoundTrip) {
-  const auto& cam = taylor_of("infrared.right");
+  const auto& cam = paper_taylor_camera("infrared.right");
   const auto full = fpga::FixedPointMap::from_float(
       rectify::build_elliptical_map(rectify::fit_elliptical_model(cam).model), cam.image_size());
   const auto quarter = fpga::QuarterTable::from_map(full);

@@ -12,18 +12,13 @@
 #include "thermovis/rectify/elliptical.hpp"
 #include "thermovis/rectify/rig_rectification.hpp"
 #include "thermovis/rectify/synthetic_view.hpp"
-#include "thermovis/runtime/rig_io.hpp"
-#include "thermovis/test/data.hpp"
+#include "thermovis/test/paper_rig.hpp"
 
 namespace {
 
 using namespace thermovis;
 
-const camera::Rig& paper_rig() {
-  static const camera::Rig rig =
-      runtime::load_rig(test::source_root() / "deploy" / "rigs" / "paper.yaml");
-  return rig;
-}
+using test::paper_rig;
 
 // The rig's maps, computed once for all tests (about a second).
 const rectify::RigRectification& paper_maps() {

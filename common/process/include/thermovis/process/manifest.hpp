@@ -5,9 +5,16 @@
 #include <string>
 #include <vector>
 
+#include "thermovis/util/enum_names.hpp"
+
 namespace thermovis::process {
 
 enum class RestartPolicy { always, on_failure, never };
+// Their names in the manifest (restart: on-failure) and in status reports.
+inline constexpr util::EnumName<RestartPolicy> kRestartPolicyNames[] = {
+    {RestartPolicy::always, "always"},
+    {RestartPolicy::on_failure, "on-failure"},
+    {RestartPolicy::never, "never"}};
 
 struct ServiceSpec {
   std::string name;                        // unique, e.g. "bridge"
