@@ -163,11 +163,61 @@ std::vector<int> eq34_passes(const std::vector<double>& values, std::vector<int>
   return kept;
 }
 
+// The nearest dense group (reject_outliers_eq34's `windows`): the nearest value with `need`
+// values within its window anchors it; its centre is the value of most neighbours within one
+// window beyond that anchor (the group's mode, not its near edge); empty when no value has
+// `need` neighbours.
+std::vector<int> nearest_dense_group(const std::vector<double>& values,
+                                     const std::vector<double>& windows, size_t need) {
+  const auto neighbours = [&](size_t i) {
+    size_t n = 0;
+    for (double v : values) n += std::abs(v - values[i]) <= windows[i];
+    return n;
+  };
+  std::vector<int> kept;
+  int anchor = -1;
+  for (size_t i = 0; i < values.size(); ++i) {
+    if (anchor >= 0 && values[i] >= values[static_cast<size_t>(anchor)]) continue;
+    if (neighbours(i) >= need) anchor = static_cast<int>(i);
+  }
+  if (anchor < 0) return kept;
+  const double from = values[static_cast<size_t>(anchor)];
+  size_t mode = static_cast<size_t>(anchor), most = 0;
+  for (size_t i = 0; i < values.size(); ++i) {
+    if (values[i] < from || values[i] > from + windows[static_cast<size_t>(anchor)]) continue;
+    const size_t n = neighbours(i);
+    if (n > most || (n == most && values[i] < values[mode])) {
+      most = n;
+      mode = i;
+    }
+  }
+  const double centre = values[mode];
+  const double reach = 2.0 * windows[mode];
+  for (size_t i = 0; i < values.size(); ++i)
+    if (std::abs(values[i] - centre) <= reach) kept.push_back(static_cast<int>(i));
+  return kept;
+}
+
 }  // namespace
 
-std::vector<int> reject_outliers_eq34(const std::vector<double>& values, int max_passes) {
+std::vector<int> reject_outliers_eq34(const std::vector<double>& values, int max_passes,
+                                      const std::vector<double>& windows) {
   std::vector<int> kept;
   if (values.empty()) return kept;
+  const size_t need = std::max<size_t>(3, (3 * values.size() + 9) / 10);
+  // A target seen before a background that recedes (the ground and walls between and beside
+  // the legs) gives distances spread without a gap, so no cluster split below separates them:
+  // the target is the nearest group of values as close together as its own depth and noise.
+  if (windows.size() == values.size()) {
+    kept = nearest_dense_group(values, windows, need);
+    if (!kept.empty()) {
+      // The group is consistent by construction: Eq. 34 trims it, but a pass that would leave
+      // fewer than 3 of its values (one mean absolute deviation of a handful is tight) is not
+      // made.
+      std::vector<int> trimmed = eq34_passes(values, kept, max_passes);
+      return trimmed.size() >= 3 ? trimmed : kept;
+    }
+  }
   // Gross outliers first (far background, a point near infinity): a single far value moves the
   // mean and the mean absolute deviation of Eq. 34 so much that the target's own points could be
   // the ones rejected. Median +- 5 scaled median absolute deviations (about 5 sigma for
@@ -178,7 +228,6 @@ std::vector<int> reject_outliers_eq34(const std::vector<double>& values, int max
   // nearer group, not whichever the median of all falls in.
   std::vector<double> sorted(values);
   std::sort(sorted.begin(), sorted.end());
-  const size_t need = std::max<size_t>(3, (3 * sorted.size() + 9) / 10);
   for (size_t begin = 0; begin < sorted.size();) {
     size_t end = begin + 1;
     while (end < sorted.size() && sorted[end] <= 1.5 * sorted[end - 1]) ++end;
@@ -385,7 +434,15 @@ TargetRange range_target(const RangingGeometry& geometry, const cv::Rect& box,
                 in_box == 0 ? where.str() + ": no correspondence in the box"
                             : where.str() + ": no correspondence with a positive disparity");
   }
-  const std::vector<int> kept = reject_outliers_eq34(distances, options.max_rejection_passes);
+  std::vector<double> windows;
+  if (options.group_relative > 0 || options.group_disparity_px > 0) {
+    for (size_t i = 0; i < distances.size(); ++i) {
+      windows.push_back(
+          std::max(options.group_relative * distances[i], options.group_disparity_px * per_px[i]));
+    }
+  }
+  const std::vector<int> kept =
+      reject_outliers_eq34(distances, options.max_rejection_passes, windows);
   r.points_used = static_cast<int>(kept.size());
   if (r.points_used < std::max(1, options.min_points)) {
     return fail(r,
@@ -418,7 +475,7 @@ TargetRange range_target(const RangingGeometry& geometry, const cv::Rect& box,
   // background: a few such resamples made sigma metres for a target ranged to centimetres.
   double random_sigma = 0;
   std::vector<double> screened;
-  for (int i : reject_outliers_eq34(distances, 0))
+  for (int i : reject_outliers_eq34(distances, 0, windows))
     screened.push_back(distances[static_cast<size_t>(i)]);
   if (screened.size() >= 2 && options.bootstrap_samples > 1) {
     std::mt19937 rng(static_cast<unsigned>(screened.size()) * 2654435761u);

@@ -149,6 +149,32 @@ TEST(Eq34, RejectsBackgroundAndFarPoints) {
   for (int i : kept) EXPECT_LT(v[static_cast<size_t>(i)], 21.0);
 }
 
+// A person at 5 m before ground and walls that recede without a gap (the distances of a box's
+// points between and beside the legs): no split of 50 % separates them, the nearest dense group
+// does.
+TEST(Eq34, KeepsTheNearestDenseGroupBeforeABackgroundThatRecedes) {
+  const std::vector<double> v = {5.02, 4.99, 5.05, 5.01, 5.08, 4.97, 5.04, 5.06, 5.00, 6.3,
+                                 6.4,  8.8,  9.0,  12.9, 13.2, 13.3, 14.3, 20.0, 29.0, 113.0};
+  std::vector<double> windows;
+  for (double d : v) windows.push_back(0.06 * d);
+  const auto grouped = rg::reject_outliers_eq34(v, 1, windows);
+  ASSERT_GE(grouped.size(), 3u);
+  for (int i : grouped) EXPECT_LT(v[static_cast<size_t>(i)], 5.1);
+  // Without the windows the background takes part.
+  bool background = false;
+  for (int i : rg::reject_outliers_eq34(v, 1)) background |= v[static_cast<size_t>(i)] > 6.0;
+  EXPECT_TRUE(background);
+}
+
+TEST(Eq34, AGroupOfAFewIsNotTrimmedBelowThree) {
+  // Five consistent values: one mean absolute deviation around their mean holds two.
+  const std::vector<double> v = {5.00, 5.01, 5.03, 5.06, 5.07, 9.0, 12.0, 15.0};
+  const std::vector<double> windows(v.size(), 0.3);
+  const auto kept = rg::reject_outliers_eq34(v, 1, windows);
+  EXPECT_EQ(kept.size(), 5u);
+  for (int i : kept) EXPECT_LT(v[static_cast<size_t>(i)], 5.1);
+}
+
 namespace {
 
 struct Trial {
