@@ -193,28 +193,12 @@ TEST_F(FoxgloveClient, EveryChannelParsesAndEveryMessageDecodesToWhatWasPublishe
     all_topics += (all_topics.empty() ? "" : ",") + std::string(t);
   // --wait: the topics nobody publishes here are waited for that long (their channels and
   // schemas are still written); --seconds counts from then.
-  ChildProcess record({(tv::test::bin_dir() / "thermovis").string(),
-                       "record",
-                       "--out",
-                       file.string(),
-                       "--topics",
-                       all_topics,
-                       "--images",
-                       std::string(topics::kFused) + "," + topics::kInfraredFrames,
-                       "--image-rate",
-                       "10",
-                       "--jpeg-quality",
-                       "95",
-                       "--seconds",
-                       "10",
-                       "--wait",
-                       "5",
-                       "--domain",
-                       std::to_string(domain),
-                       "--profile",
-                       tv::transport::kLoopbackProfile,
-                       "--json"},
-                      dir / "record.log");
+  ChildProcess record(
+      tv::test::record_command(
+          domain, {"--out", file.string(), "--topics", all_topics, "--images",
+                   std::string(topics::kFused) + "," + topics::kInfraredFrames, "--image-rate",
+                   "10", "--jpeg-quality", "95", "--seconds", "10", "--wait", "5"}),
+      dir / "record.log");
 
   tv::transport::Writer<tv::RangeArray> ranges(*participant, topics::kRanges,
                                                tv::transport::event_topic_qos());
@@ -423,11 +407,9 @@ TEST_F(FoxgloveClient, Ros2BagDecodesToWhatWasPublishedAndItsMetadataMatchesTheM
   const int domain = tv::test::private_domain();
   const auto participant = tv::test::loopback_participant(domain, "ros2-bag-test");
   const auto bag = dir / "bag";
-  ChildProcess record(
-      {(tv::test::bin_dir() / "thermovis").string(), "record", "--ros2", bag.string(),
-       "--image-rate", "2", "--seconds", "8", "--wait", "5", "--domain", std::to_string(domain),
-       "--profile", tv::transport::kLoopbackProfile, "--json"},
-      dir / "record.log");
+  ChildProcess record(tv::test::record_command(domain, {"--ros2", bag.string(), "--image-rate", "2",
+                                                        "--seconds", "8", "--wait", "5"}),
+                      dir / "record.log");
 
   tv::transport::Writer<tv::RangeArray> ranges(*participant, topics::kRanges,
                                                tv::transport::event_topic_qos());
@@ -572,9 +554,7 @@ TEST_F(FoxgloveClient, Ros2BagOfAPipelineRunHoldsWhatThePipelinePublished) {
 
   const auto bag = dir / "bag";
   ChildProcess record(
-      {(tv::test::bin_dir() / "thermovis").string(), "record", "--ros2", bag.string(), "--seconds",
-       "5", "--wait", "60", "--domain", std::to_string(domain), "--profile",
-       tv::transport::kLoopbackProfile, "--json"},
+      tv::test::record_command(domain, {"--ros2", bag.string(), "--seconds", "5", "--wait", "60"}),
       dir / "record.log");
   const auto until = std::chrono::steady_clock::now() + 120s;
   while (!record.poll() && std::chrono::steady_clock::now() < until) {

@@ -287,27 +287,11 @@ TEST(RecordPictures, RawInfraredPicturesBesideItsCdrTapAndCorruptFramesCountedAs
   const auto file = dir / "pictures.mcap";
   constexpr double kRateHz = 5.0;
   const std::string picture_channel = std::string(topics::kInfraredFrames) + "/left/compressed";
-  ChildProcess record({(tv::test::bin_dir() / "thermovis").string(),
-                       "record",
-                       "--out",
-                       file.string(),
-                       "--topics",
-                       topics::kInfraredFrames,
-                       "--images",
-                       topics::kInfraredFrames,
-                       "--image-rate",
-                       "5",
-                       "--no-scene",
-                       "--seconds",
-                       "6",
-                       "--wait",
-                       "60",
-                       "--domain",
-                       std::to_string(domain),
-                       "--profile",
-                       tv::transport::kLoopbackProfile,
-                       "--json"},
-                      dir / "record.log");
+  ChildProcess record(
+      tv::test::record_command(domain, {"--out", file.string(), "--topics", topics::kInfraredFrames,
+                                        "--images", topics::kInfraredFrames, "--image-rate", "5",
+                                        "--no-scene", "--seconds", "6", "--wait", "60"}),
+      dir / "record.log");
   const auto participant = tv::test::loopback_participant(domain, "record-pictures-test");
   // The bridge's QoS: its pool is what the recorder's two readers share.
   tv::transport::Writer<tv::InfraredStereoFrame> infrared(*participant, topics::kInfraredFrames,
