@@ -57,8 +57,10 @@ const std::vector<std::string>& default_topics() {
 
 struct TopicCount {
   std::uint64_t recorded = 0;
-  std::uint64_t missed = 0;   // published, but overwritten in the reader before it took them
+  std::uint64_t missed = 0;   // published, but overwritten before the reader took or copied them
   std::uint64_t dropped = 0;  // taken, but the write buffer was full (the disk fell behind)
+  std::uint64_t failed = 0;   // taken, but no message could be made of them (`failure` says why)
+  std::string failure;        // the first failure's reason
   std::uint64_t bytes = 0;
 };
 
@@ -149,7 +151,7 @@ int run_record(const Options& opt) {
         {topic.name,
          writer.add_channel(schema, topic.name, "cdr",
                             {{"offered_qos_profiles", bag_topics.back().offered_qos_profiles}}),
-         tv::cli::make_ros2_tap(*participant, topic)});
+         tv::cli::make_ros2_tap(*participant, topic, opt.image.rate_hz)});
   }
   const auto& image_schema = tv::record::compressed_image_schema();
   for (const RecordableTopic& topic : opt.images == "none" || bag
@@ -203,11 +205,22 @@ int run_record(const Options& opt) {
   for (std::size_t i = 0; i < sources.size(); ++i) {
     threads.emplace_back([&, i] {
       const auto sink = [&](TappedSample&& sample) {
-        const std::uint64_t missed = sample.missed_before;
-        const bool queued = queue.push(i, std::move(sample));
+        using Status = TappedSample::Status;
+        const Status status = sample.status;
+        std::uint64_t missed = sample.missed_before;
+        if (status == Status::overwritten) ++missed;
+        const bool queued = status == Status::recorded && queue.push(i, std::move(sample));
         std::lock_guard<std::mutex> lock(counts_mutex);
         counts[i].missed += missed;
-        if (!queued) ++counts[i].dropped;
+        if (status == Status::recorded && !queued) ++counts[i].dropped;
+        if (status == Status::failed && counts[i].failed++ == 0) {
+          // Said at once: a channel that records nothing must not look like a quiet topic.
+          counts[i].failure = sample.failure;
+          std::cerr << "thermovis record: " << sources[i].name
+                    << ": a sample cannot be recorded (counted as failed, and so are the next "
+                       "ones): "
+                    << sample.failure << std::endl;
+        }
       };
       while (!stop_taps) sources[i].tap->poll(std::chrono::milliseconds(100), sink);
     });
@@ -252,14 +265,17 @@ int run_record(const Options& opt) {
 
   const double file_mb = static_cast<double>(std::filesystem::file_size(file)) / 1e6;
   nlohmann::json per_topic = nlohmann::json::object();
-  std::uint64_t missed = 0, dropped = 0;
+  std::uint64_t missed = 0, dropped = 0, failed = 0;
   for (std::size_t i = 0; i < sources.size(); ++i) {
     per_topic[sources[i].name] = {{"recorded", counts[i].recorded},
                                   {"missed", counts[i].missed},
                                   {"dropped", counts[i].dropped},
+                                  {"failed", counts[i].failed},
                                   {"mb", static_cast<double>(counts[i].bytes) / 1e6}};
+    if (counts[i].failed > 0) per_topic[sources[i].name]["failure"] = counts[i].failure;
     missed += counts[i].missed;
     dropped += counts[i].dropped;
+    failed += counts[i].failed;
   }
   const nlohmann::json summary{
       {"file", file.string()},
@@ -270,6 +286,7 @@ int run_record(const Options& opt) {
       {"record_mb_per_s", static_cast<double>(payload_bytes) / 1e6 / seconds},
       {"missed", missed},
       {"dropped", dropped},
+      {"failed", failed},
       {"topics", per_topic}};
   if (json) {
     std::cout << summary.dump() << std::endl;
@@ -281,8 +298,9 @@ int run_record(const Options& opt) {
     for (std::size_t i = 0; i < sources.size(); ++i) {
       std::cout << "  " << std::left << std::setw(34) << sources[i].name << std::right
                 << std::setw(8) << counts[i].recorded << " recorded" << std::setw(8)
-                << counts[i].missed << " missed" << std::setw(8) << counts[i].dropped
-                << " dropped\n";
+                << counts[i].missed << " missed" << std::setw(8) << counts[i].dropped << " dropped"
+                << std::setw(8) << counts[i].failed << " failed\n";
+      if (counts[i].failed > 0) std::cout << "    failed: " << counts[i].failure << "\n";
     }
   }
   return 0;
@@ -300,14 +318,17 @@ THERMOVIS_COMMAND(
           "780 MB/s; the small topics are a few kB per frame. zstd level 1 keeps up with a few "
           "captures a second on one core (run the bridge at a lower --rate to record every "
           "capture). Captures the recorder could not take before the next ones replaced them "
-          "are counted as missed, samples the disk could not keep up with as dropped: both are "
-          "reported at the end.");
+          "are counted as missed (so are frames their writer overwrote while they were copied), "
+          "samples the disk could not keep up with as dropped, samples no message could be made "
+          "of (a corrupt frame header) as failed, with the reason: all are reported at the "
+          "end.");
       auto* out = app.add_option("--out", opt->out, "MCAP file to write");
       auto* ros2 = app.add_option(
           "--ros2", opt->ros2,
           "instead of --out: a ROS 2 bag folder (new or empty) for `ros2 bag play`, of the topics "
-          "thermovis-ros2 publishes (/thermovis/fused/image, /thermovis/ranges, "
-          "/thermovis/detections) as rosbag2 writes them with its MCAP storage");
+          "thermovis-ros2 publishes (/thermovis/fused/image at most --image-rate a second, "
+          "/thermovis/ranges, /thermovis/detections: every one) as rosbag2 writes them with its "
+          "MCAP storage");
       out->excludes(ros2);
       auto* topic_list =
           app.add_option("--topics", opt->topics,
@@ -338,11 +359,12 @@ THERMOVIS_COMMAND(
                  "(foxglove.CompressedImage of the left eye on <topic>/left/compressed: JPEG, "
                  "or lossless 16-bit PNG for raw infrared), or none")
               ->capture_default_str();
-      auto* image_rate =
-          app.add_option("--image-rate", opt->image.rate_hz,
-                         "pictures a second per --images topic, at most (by capture time)")
-              ->capture_default_str()
-              ->check(CLI::PositiveNumber);
+      app.add_option("--image-rate", opt->image.rate_hz,
+                     "pictures a second per --images topic, and images a second on a --ros2 "
+                     "bag's /thermovis/fused/image, at most (by capture time; 0: every "
+                     "frame received, about 1.6 MB each in a bag)")
+          ->capture_default_str()
+          ->check(CLI::NonNegativeNumber);
       auto* jpeg_quality =
           app.add_option("--jpeg-quality", opt->image.jpeg_quality, "JPEG quality of the pictures")
               ->capture_default_str()
@@ -353,8 +375,7 @@ THERMOVIS_COMMAND(
                        "foxglove.FrameTransforms of the rig's cameras (thermovis/transforms)");
       app.add_flag("--json", opt->json, "print the summary as one JSON object");
       // A ROS 2 bag holds the bridge's topics only: no pipeline topics, pictures or scene.
-      for (auto* option : {topic_list, images, image_rate, jpeg_quality, no_scene})
-        ros2->excludes(option);
+      for (auto* option : {topic_list, images, jpeg_quality, no_scene}) ros2->excludes(option);
       return [opt] { return run_record(*opt); };
     });
 

@@ -2,7 +2,6 @@
 
 #include <Eigen/Geometry>
 #include <iomanip>
-#include <iostream>
 #include <map>
 #include <optional>
 #include <sstream>
@@ -151,9 +150,15 @@ void serialize_cdr(const std::string& topic, PubSub& pubsub, const T& sample,
   out.resize(payload.payload.length);
 }
 
-// What a tap records of one taken sample: its bytes into `out`, or false to skip it.
+// The step that makes a taken sample's recorded bytes from what its Encode copied out of it, run
+// once the copy is known not torn (compressing a picture takes longer than a writer may leave a
+// data-sharing slot alone).
+using Finish = std::function<void(std::vector<std::uint8_t>& out)>;
+// What a tap records of one taken sample: its bytes into `out` (and, when they take long to make,
+// a copy of what they are made from and the `finish` that makes them), or false to skip it.
+// Throws, naming what is wrong, when no message can be made of the sample.
 template <class T>
-using Encode = std::function<bool(const T& sample, std::vector<std::uint8_t>& out)>;
+using Encode = std::function<bool(const T& sample, std::vector<std::uint8_t>& out, Finish& finish)>;
 
 template <class T>
 class Tap final : public TopicTap {
@@ -166,21 +171,42 @@ class Tap final : public TopicTap {
 
   std::size_t poll(std::chrono::milliseconds timeout,
                    const std::function<void(TappedSample&&)>& sink) override {
+    using Status = TappedSample::Status;
     reader_.wait_for_data(timeout);
     auto samples = reader_.take();
     for (std::size_t i = 0; i < samples.size(); ++i) {
       TappedSample out;
-      if (!(encode_ ? encode_(samples[i], out.data) : serialize(samples[i], out.data))) continue;
-      // A frame's data-sharing slot reused by its writer while it was copied: a torn copy, not
-      // recorded (the next sample's sequence gap counts it as missed).
-      if (!samples.still_valid(i)) continue;
       const auto& info = samples.info(i);
       out.publish_ns = info.source_timestamp.to_ns();
       out.writer_sequence = info.sample_identity.sequence_number().to64long();
+      // Every sample taken counts, whatever becomes of it: a gap is what DDS never delivered.
       auto& last = last_sequence_[info.sample_identity.writer_guid()];
       if (last != 0 && out.writer_sequence > last + 1)
         out.missed_before = out.writer_sequence - last - 1;
       last = out.writer_sequence;
+      Finish finish;
+      try {
+        if (!(encode_ ? encode_(samples[i], out.data, finish) : serialize(samples[i], out.data)))
+          out.status = Status::skipped;
+      } catch (const std::exception& e) {
+        out.status = Status::failed;
+        out.failure = e.what();
+      }
+      // A frame's data-sharing slot reused by its writer while it was copied: a torn copy (and a
+      // failure made of one says nothing about the sample).
+      if (out.status != Status::skipped && !samples.still_valid(i)) {
+        out.status = Status::overwritten;
+        out.failure.clear();
+      }
+      if (out.status == Status::recorded && finish) {
+        try {
+          finish(out.data);
+        } catch (const std::exception& e) {
+          out.status = Status::failed;
+          out.failure = e.what();
+        }
+      }
+      if (out.status != Status::recorded) out.data.clear();
       sink(std::move(out));
     }
     return samples.size();
@@ -296,30 +322,43 @@ std::string image_frame_id(const RecordableTopic& frame_topic) {
   return infrared ? "infrared.left" : "visible.left";
 }
 
+RateLimit::RateLimit(double rate_hz) {
+  if (!(rate_hz >= 0))
+    throw std::invalid_argument("a rate must be 0 (every sample) or positive, got " +
+                                std::to_string(rate_hz) + " Hz");
+  if (rate_hz > 0) period_ns_ = static_cast<std::int64_t>(1e9 / rate_hz);
+}
+
+bool RateLimit::due(std::int64_t capture_ns) const {
+  return !last_ns_ || capture_ns < *last_ns_ || capture_ns - *last_ns_ >= period_ns_;
+}
+
+void RateLimit::mark(std::int64_t capture_ns) { last_ns_ = capture_ns; }
+
 std::unique_ptr<TopicTap> make_image_view_tap(transport::Participant& participant,
                                               const RecordableTopic& frame_topic,
                                               const ImageViewOptions& options) {
   if (!frame_topic.frame)
     throw std::invalid_argument("no images on " + frame_topic.topic + ": not a frame topic");
-  if (!(options.rate_hz > 0))
-    throw std::invalid_argument("image rate must be positive, got " +
-                                std::to_string(options.rate_hz) + " Hz");
+  auto limit = std::make_shared<RateLimit>(options.rate_hz);
   return with_type_tag(frame_topic.type_name, [&](auto tag) -> std::unique_ptr<TopicTap> {
     using T = typename decltype(tag)::type;
     if constexpr (!kIsFrame<T>) {
       throw std::invalid_argument("no images on " + frame_topic.topic);
     } else {
-      const auto period_ns = static_cast<std::int64_t>(1e9 / options.rate_hz);
-      const std::string frame_id = image_frame_id(frame_topic);
-      Encode<T> encode = [period_ns, frame_id, quality = options.jpeg_quality,
-                          last = std::optional<std::int64_t>()](
-                             const T& frame, std::vector<std::uint8_t>& out) mutable {
+      Encode<T> encode = [limit, frame_id = image_frame_id(frame_topic),
+                          quality = options.jpeg_quality](
+                             const T& frame, std::vector<std::uint8_t>&, Finish& finish) {
         const std::int64_t t = frame.capture_time_ns();
-        if (last && t >= *last && t - *last < period_ns) return false;
-        last = t;
-        const std::string json = record::compressed_image_json(
-            t, frame_id, record::encode_image(node::view(frame, node::Eye::left), quality));
-        out.assign(json.begin(), json.end());
+        if (!limit->due(t)) return false;
+        // The pixels out of the slot first: the writer may reuse it while they are compressed.
+        const cv::Mat left = node::view(frame, node::Eye::left).clone();
+        finish = [limit, t, frame_id, quality, left](std::vector<std::uint8_t>& out) {
+          limit->mark(t);
+          const std::string json =
+              record::compressed_image_json(t, frame_id, record::encode_image(left, quality));
+          out.assign(json.begin(), json.end());
+        };
         return true;
       };
       return std::make_unique<Tap<T>>(participant, frame_topic, std::move(encode));
@@ -350,7 +389,8 @@ std::vector<record::SceneBox> scene_boxes(const RangeArray& ranges) {
 }  // namespace
 
 std::unique_ptr<TopicTap> make_scene_view_tap(transport::Participant& participant) {
-  Encode<RangeArray> encode = [](const RangeArray& ranges, std::vector<std::uint8_t>& out) {
+  Encode<RangeArray> encode = [](const RangeArray& ranges, std::vector<std::uint8_t>& out,
+                                 Finish&) {
     const std::string json =
         record::scene_update_json(ranges.capture_time_ns(), "visible.left", scene_boxes(ranges));
     out.assign(json.begin(), json.end());
@@ -396,17 +436,24 @@ const std::vector<Ros2BagTopic>& ros2_bag_topics() {
 
 namespace {
 
-// A tap of `source` recording each sample as ROS 2 message M: `convert(sample, message)` (false:
-// not recorded), then M's CDR.
+// A tap of `source` recording each sample as ROS 2 message M: `convert(sample, message)` (throws
+// naming what is wrong with the sample), then M's CDR; at most `rate_hz` samples a second by
+// capture time (0: every one).
 template <class T, class M, class Convert>
 std::unique_ptr<TopicTap> ros2_tap(transport::Participant& participant, const Ros2BagTopic& topic,
-                                   Convert convert) {
+                                   Convert convert, double rate_hz = 0.0) {
   auto pubsub = std::make_shared<typename transport::TypeSupportOf<M>::type>();
   auto message = std::make_shared<M>();  // reused: an image's data buffer keeps its size
-  Encode<T> encode = [name = topic.name, pubsub, message, convert](const T& sample,
-                                                                   std::vector<std::uint8_t>& out) {
-    if (!convert(sample, *message)) return false;
-    serialize_cdr(name, *pubsub, *message, out);
+  auto limit = std::make_shared<RateLimit>(rate_hz);
+  Encode<T> encode = [name = topic.name, pubsub, message, convert, limit](
+                         const T& sample, std::vector<std::uint8_t>&, Finish& finish) {
+    const std::int64_t t = sample.capture_time_ns();
+    if (!limit->due(t)) return false;
+    convert(sample, *message);
+    finish = [name, pubsub, message, limit, t](std::vector<std::uint8_t>& out) {
+      limit->mark(t);
+      serialize_cdr(name, *pubsub, *message, out);
+    };
     return true;
   };
   return std::make_unique<Tap<T>>(participant, recordable_topic(topic.source), std::move(encode));
@@ -415,27 +462,23 @@ std::unique_ptr<TopicTap> ros2_tap(transport::Participant& participant, const Ro
 }  // namespace
 
 std::unique_ptr<TopicTap> make_ros2_tap(transport::Participant& participant,
-                                        const Ros2BagTopic& topic) {
+                                        const Ros2BagTopic& topic, double image_rate_hz) {
   namespace ros = ros2_bridge;
   if (topic.source == topics::kFused) {
+    // A frame with a corrupt header is reported (as failed, by the tap) and skipped, as the
+    // bridge does.
     return ros2_tap<GridStereoFrame, sensor_msgs::msg::dds_::Image_>(
-        participant, topic, [](const GridStereoFrame& frame, sensor_msgs::msg::dds_::Image_& m) {
-          try {
-            ros::to_ros_image(frame, ros::kImageFrameId, m);
-          } catch (const node::FrameError& e) {
-            // As the bridge does: a frame with a corrupt header is reported and skipped.
-            std::cerr << "thermovis record: " << topics::kFused << ": " << e.what() << std::endl;
-            return false;
-          }
-          return true;
-        });
+        participant, topic,
+        [](const GridStereoFrame& frame, sensor_msgs::msg::dds_::Image_& m) {
+          ros::to_ros_image(frame, ros::kImageFrameId, m);
+        },
+        image_rate_hz);
   }
   if (topic.source == topics::kRanges) {
     return ros2_tap<RangeArray, thermovis_msgs::msg::dds_::RangeArray_>(
         participant, topic,
         [](const RangeArray& ranges, thermovis_msgs::msg::dds_::RangeArray_& m) {
           m = ros::to_ros(ranges, ros::kRangesFrameId);
-          return true;
         });
   }
   if (topic.source == topics::kDetections) {
@@ -443,7 +486,6 @@ std::unique_ptr<TopicTap> make_ros2_tap(transport::Participant& participant,
         participant, topic,
         [](const DetectionArray& detections, thermovis_msgs::msg::dds_::DetectionArray_& m) {
           m = ros::to_ros(detections, ros::kImageFrameId);
-          return true;
         });
   }
   throw std::invalid_argument("no ROS 2 message for pipeline topic " + topic.source);

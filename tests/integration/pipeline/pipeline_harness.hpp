@@ -54,6 +54,16 @@ inline std::vector<std::string> supervisor_command(const std::filesystem::path& 
   return argv;
 }
 
+// `thermovis record` on `domain` (loopback profile, JSON summary), with `args` (what to record
+// and for how long).
+inline std::vector<std::string> record_command(int domain, const std::vector<std::string>& args) {
+  std::vector<std::string> argv{(bin_dir() / "thermovis").string(), "record"};
+  argv.insert(argv.end(), args.begin(), args.end());
+  argv.insert(argv.end(), {"--domain", std::to_string(domain), "--profile",
+                           transport::kLoopbackProfile, "--json"});
+  return argv;
+}
+
 // The services' logs the supervisor of supervisor_command(dir, ...) wrote, each headed by its
 // name: what a failed pipeline test prints.
 inline std::string service_logs(const std::filesystem::path& dir) {

@@ -20,6 +20,7 @@
 #include <iterator>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
 
 #include <opencv2/core.hpp>
@@ -163,6 +164,12 @@ class FoxgloveClient : public ::testing::Test {
   static inline std::string install_error_;
 };
 
+// A ROS 2 message's header.stamp, ns since the epoch.
+std::int64_t header_stamp(const nlohmann::json& message) {
+  return message["header"]["stamp"]["sec"].get<std::int64_t>() * 1'000'000'000 +
+         message["header"]["stamp"]["nanosec"].get<std::int64_t>();
+}
+
 // The messages of `topic` in Foxglove's view.
 std::vector<nlohmann::json> messages_on(const nlohmann::json& view, const std::string& topic) {
   std::vector<nlohmann::json> out;
@@ -186,28 +193,12 @@ TEST_F(FoxgloveClient, EveryChannelParsesAndEveryMessageDecodesToWhatWasPublishe
     all_topics += (all_topics.empty() ? "" : ",") + std::string(t);
   // --wait: the topics nobody publishes here are waited for that long (their channels and
   // schemas are still written); --seconds counts from then.
-  ChildProcess record({(tv::test::bin_dir() / "thermovis").string(),
-                       "record",
-                       "--out",
-                       file.string(),
-                       "--topics",
-                       all_topics,
-                       "--images",
-                       std::string(topics::kFused) + "," + topics::kInfraredFrames,
-                       "--image-rate",
-                       "10",
-                       "--jpeg-quality",
-                       "95",
-                       "--seconds",
-                       "10",
-                       "--wait",
-                       "5",
-                       "--domain",
-                       std::to_string(domain),
-                       "--profile",
-                       tv::transport::kLoopbackProfile,
-                       "--json"},
-                      dir / "record.log");
+  ChildProcess record(
+      tv::test::record_command(
+          domain, {"--out", file.string(), "--topics", all_topics, "--images",
+                   std::string(topics::kFused) + "," + topics::kInfraredFrames, "--image-rate",
+                   "10", "--jpeg-quality", "95", "--seconds", "10", "--wait", "5"}),
+      dir / "record.log");
 
   tv::transport::Writer<tv::RangeArray> ranges(*participant, topics::kRanges,
                                                tv::transport::event_topic_qos());
@@ -416,11 +407,9 @@ TEST_F(FoxgloveClient, Ros2BagDecodesToWhatWasPublishedAndItsMetadataMatchesTheM
   const int domain = tv::test::private_domain();
   const auto participant = tv::test::loopback_participant(domain, "ros2-bag-test");
   const auto bag = dir / "bag";
-  ChildProcess record(
-      {(tv::test::bin_dir() / "thermovis").string(), "record", "--ros2", bag.string(), "--seconds",
-       "8", "--wait", "5", "--domain", std::to_string(domain), "--profile",
-       tv::transport::kLoopbackProfile, "--json"},
-      dir / "record.log");
+  ChildProcess record(tv::test::record_command(domain, {"--ros2", bag.string(), "--image-rate", "2",
+                                                        "--seconds", "8", "--wait", "5"}),
+                      dir / "record.log");
 
   tv::transport::Writer<tv::RangeArray> ranges(*participant, topics::kRanges,
                                                tv::transport::event_topic_qos());
@@ -445,16 +434,19 @@ TEST_F(FoxgloveClient, Ros2BagDecodesToWhatWasPublishedAndItsMetadataMatchesTheM
       colour.at<cv::Vec3b>(y, x) = {static_cast<std::uint8_t>(x / 3),
                                     static_cast<std::uint8_t>(y / 2),
                                     static_cast<std::uint8_t>(x + y)};
-  // Best-effort frames: a few captures, each with its own time, so that some arrive.
+  // Best-effort frames: captures 250 ms apart, each with its own time, so that some arrive; at
+  // --image-rate 2 no two images in the bag are less than 500 ms apart by capture time.
+  constexpr std::int64_t kFramePeriod = 250'000'000, kImagePeriod = 500'000'000;
+  constexpr int kFrames = 10;
   std::set<std::int64_t> capture_times;
-  for (int i = 0; i < 5; ++i) {
+  for (int i = 0; i < kFrames; ++i) {
     auto frame = fused.loan();
     frame->seq(41 + i);
-    frame->capture_time_ns(kCapture + i * 20'000'000);
+    frame->capture_time_ns(kCapture + i * kFramePeriod);
     frame->eyes(tv::EYES_LEFT);
     colour.copyTo(tv::node::prepare(*frame, tv::node::Eye::left, colour.size(), CV_8UC3));
     fused.publish(std::move(frame));
-    capture_times.insert(kCapture + i * 20'000'000);
+    capture_times.insert(kCapture + i * kFramePeriod);
     std::this_thread::sleep_for(200ms);
   }
 
@@ -499,10 +491,17 @@ TEST_F(FoxgloveClient, Ros2BagDecodesToWhatWasPublishedAndItsMetadataMatchesTheM
 
   const auto images = messages_on(view, "/thermovis/fused/image");
   ASSERT_GE(images.size(), 1U);
+  EXPECT_LE(images.size(),
+            static_cast<std::size_t>((kFrames - 1) * kFramePeriod / kImagePeriod + 1))
+      << "at most 2 images a second of capture time";
+  std::optional<std::int64_t> previous;
   for (const auto& image : images) {
-    const std::int64_t stamp = image["header"]["stamp"]["sec"].get<std::int64_t>() * 1'000'000'000 +
-                               image["header"]["stamp"]["nanosec"].get<std::int64_t>();
+    const std::int64_t stamp = header_stamp(image);
     EXPECT_EQ(capture_times.count(stamp), 1U) << "an image stamped " << stamp;
+    if (previous) {
+      EXPECT_GE(stamp - *previous, kImagePeriod) << "an image stamped " << stamp;
+    }
+    previous = stamp;
     EXPECT_EQ(image["header"]["frame_id"], "thermovis_rectified_left");
     EXPECT_EQ(image["encoding"], "bgr8");
     EXPECT_EQ(image["width"], 640);
@@ -555,9 +554,7 @@ TEST_F(FoxgloveClient, Ros2BagOfAPipelineRunHoldsWhatThePipelinePublished) {
 
   const auto bag = dir / "bag";
   ChildProcess record(
-      {(tv::test::bin_dir() / "thermovis").string(), "record", "--ros2", bag.string(), "--seconds",
-       "5", "--wait", "60", "--domain", std::to_string(domain), "--profile",
-       tv::transport::kLoopbackProfile, "--json"},
+      tv::test::record_command(domain, {"--ros2", bag.string(), "--seconds", "5", "--wait", "60"}),
       dir / "record.log");
   const auto until = std::chrono::steady_clock::now() + 120s;
   while (!record.poll() && std::chrono::steady_clock::now() < until) {
@@ -581,9 +578,7 @@ TEST_F(FoxgloveClient, Ros2BagOfAPipelineRunHoldsWhatThePipelinePublished) {
     const auto seq = r["frame_seq"].get<std::uint64_t>();
     const auto live = published.find(seq);
     ASSERT_NE(live, published.end()) << "frame " << seq << " is not one the pipeline published";
-    const std::int64_t stamp = r["header"]["stamp"]["sec"].get<std::int64_t>() * 1'000'000'000 +
-                               r["header"]["stamp"]["nanosec"].get<std::int64_t>();
-    EXPECT_EQ(stamp, live->second.capture_ns) << "frame " << seq;
+    EXPECT_EQ(header_stamp(r), live->second.capture_ns) << "frame " << seq;
     ASSERT_EQ(r["targets"].size(), live->second.targets.size()) << "frame " << seq;
     for (std::size_t i = 0; i < live->second.targets.size(); ++i) {
       const auto& t = r["targets"][i];
@@ -598,18 +593,34 @@ TEST_F(FoxgloveClient, Ros2BagOfAPipelineRunHoldsWhatThePipelinePublished) {
   }
   EXPECT_GT(with_targets, 0U) << "the simulated scene's targets are ranged";
 
+  // The images' rate leaves the ranges alone: every range array the pipeline published between the
+  // bag's first and last is in it, but for those the recorder says it missed.
+  std::set<std::uint64_t> in_bag;
+  for (const auto& r : decoded_ranges) in_bag.insert(r["frame_seq"].get<std::uint64_t>());
+  std::size_t absent = 0;
+  for (const auto& [seq, p] : published)
+    absent += seq > *in_bag.begin() && seq < *in_bag.rbegin() && in_bag.count(seq) == 0;
+  const auto summary = tv::test::last_json_line(record.log());
+  EXPECT_LE(absent, summary["topics"]["/thermovis/ranges"]["missed"].get<std::size_t>())
+      << "range arrays published during the recording and not in the bag";
+
   // Images: stamped with the capture time of a fused frame. This test's own reader of the 50 Hz
   // frames (KEEP_LAST 2) can miss one on a loaded machine, and the ranges skip the frames the
   // services dropped: nine in ten stamps, not every one, must be among those it saw.
   const auto images = messages_on(view, "/thermovis/fused/image");
-  ASSERT_GE(images.size(), 5U) << record.log();
+  ASSERT_GE(images.size(), 4U) << record.log();
   std::set<std::int64_t> seen = fused_captures;
   for (const auto& [seq, p] : published) seen.insert(p.capture_ns);
   std::size_t known = 0;
+  std::optional<std::int64_t> previous;
   for (const auto& image : images) {
-    const std::int64_t stamp = image["header"]["stamp"]["sec"].get<std::int64_t>() * 1'000'000'000 +
-                               image["header"]["stamp"]["nanosec"].get<std::int64_t>();
+    const std::int64_t stamp = header_stamp(image);
     known += seen.count(stamp);
+    // The default --image-rate, 2 a second by capture time.
+    if (previous) {
+      EXPECT_GE(stamp - *previous, 500'000'000) << "an image stamped " << stamp;
+    }
+    previous = stamp;
     EXPECT_GT(image["width"].get<int>(), 0);
     EXPECT_EQ(image["data"]["length"].get<int>(),
               image["step"].get<int>() * image["height"].get<int>());

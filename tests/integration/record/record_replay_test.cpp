@@ -13,6 +13,7 @@
 #include <fstream>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <set>
 #include <sstream>
@@ -20,6 +21,7 @@
 #include <vector>
 
 #include "../pipeline/pipeline_harness.hpp"
+#include "thermovis/node/frame_codec.hpp"
 #include "thermovis/record/mcap.hpp"
 #include "thermovis/test/child_process.hpp"
 #include "thermovis/test/data.hpp"
@@ -27,6 +29,7 @@
 #include "thermovis/transport/reader.hpp"
 #include "thermovis/transport/topic_types.hpp"
 #include "thermovis/transport/topics.hpp"
+#include "thermovis/transport/writer.hpp"
 
 namespace {
 
@@ -272,6 +275,71 @@ TEST(RecordReplay, ReplayedCapturesGiveTheRangesOfTheLiveRun) {
   for (const auto& [seq, targets] : replayed)
     EXPECT_TRUE(captured.count(seq)) << "replay ranged frame " << seq << ", never recorded";
   std::filesystem::remove_all(dir);
+}
+
+// Pictures of raw infrared recorded beside the CDR tap of the same topic, from the bridge's
+// data-sharing pool (a 16-bit PNG takes longer to make than the writer leaves a slot alone: they
+// were all torn copies, dropped without a word). Frames whose header is corrupt are counted as
+// failed, with the reason, and the recorder goes on; the pictures keep to --image-rate.
+TEST(RecordPictures, RawInfraredPicturesBesideItsCdrTapAndCorruptFramesCountedAsFailed) {
+  const auto dir = tv::test::temp_dir("record_pictures");
+  const int domain = tv::test::private_domain();
+  const auto file = dir / "pictures.mcap";
+  constexpr double kRateHz = 5.0;
+  const std::string picture_channel = std::string(topics::kInfraredFrames) + "/left/compressed";
+  ChildProcess record(
+      tv::test::record_command(domain, {"--out", file.string(), "--topics", topics::kInfraredFrames,
+                                        "--images", topics::kInfraredFrames, "--image-rate", "5",
+                                        "--no-scene", "--seconds", "6", "--wait", "60"}),
+      dir / "record.log");
+  const auto participant = tv::test::loopback_participant(domain, "record-pictures-test");
+  // The bridge's QoS: its pool is what the recorder's two readers share.
+  tv::transport::Writer<tv::InfraredStereoFrame> infrared(*participant, topics::kInfraredFrames,
+                                                          tv::transport::frame_topic_qos());
+  ASSERT_TRUE(infrared.wait_for_readers(2, 60s)) << record.log();
+
+  // Random 14-bit counts (slow to compress), at 50 Hz by capture time and about as fast.
+  cv::Mat counts(tv::INFRARED_HEIGHT, tv::INFRARED_WIDTH, CV_16UC1);
+  cv::randu(counts, 0, 16384);
+  constexpr std::int64_t kStart = 1'700'000'000'000'000'000, kPeriod = 20'000'000;
+  constexpr int kFrames = 150, kCorrupt = 20;
+  for (int i = 0; i < kFrames; ++i) {
+    auto frame = infrared.loan();
+    frame->seq(static_cast<std::uint64_t>(i));
+    frame->capture_time_ns(kStart + i * kPeriod);
+    counts.copyTo(tv::node::prepare(*frame, tv::node::Eye::left, counts.size()));
+    // A run of frames, two picture periods long, with a height beyond the frame's buffer.
+    if (i >= kFrames / 3 && i < kFrames / 3 + kCorrupt) frame->height(tv::INFRARED_HEIGHT * 4);
+    infrared.publish(std::move(frame));
+    std::this_thread::sleep_for(20ms);
+  }
+  ASSERT_EQ(record.wait(60s), 0) << "the recorder survives corrupt frames: " << record.log();
+
+  const nlohmann::json summary = tv::test::last_json_line(record.log());
+  const auto& pictures = summary["topics"][picture_channel];
+  EXPECT_GE(pictures["failed"].get<int>(), 1) << record.log();
+  EXPECT_NE(pictures.value("failure", "").find("does not fit"), std::string::npos)
+      << "the reason says what is wrong: " << record.log();
+
+  tv::record::McapReader reader(file);
+  ASSERT_NE(reader.channel(picture_channel), nullptr);
+  const std::uint16_t channel = reader.channel(picture_channel)->id;
+  std::vector<std::int64_t> stamps;
+  reader.read_messages([&](const tv::record::McapMessageView& m) {
+    if (m.channel_id != channel) return true;
+    const auto json = nlohmann::json::parse(m.data, m.data + m.size);
+    stamps.push_back(json["timestamp"]["sec"].get<std::int64_t>() * 1'000'000'000 +
+                     json["timestamp"]["nsec"].get<std::int64_t>());
+    EXPECT_EQ(json["format"], "png");
+    return true;
+  });
+  EXPECT_GE(stamps.size(), 1U) << "pictures of raw infrared beside its CDR tap: " << record.log();
+  EXPECT_EQ(stamps.size(), pictures["recorded"].get<std::size_t>());
+  // By capture time: at most one picture per 1/rate, so no more than the span allows.
+  for (std::size_t i = 1; i < stamps.size(); ++i)
+    EXPECT_GE(stamps[i] - stamps[i - 1], static_cast<std::int64_t>(1e9 / kRateHz));
+  const double span_s = static_cast<double>((kFrames - 1) * kPeriod) / 1e9;
+  EXPECT_LE(static_cast<double>(stamps.size()), span_s * kRateHz + 1);
 }
 
 }  // namespace
