@@ -20,6 +20,10 @@ namespace thermovis::cli {
 
 namespace {
 
+// The viewer's niceness: a best-effort consumer of the pipeline's results (not idle: it holds
+// loans of the fused frames while it copies them, and must not sit on one for long).
+constexpr int kDisplayNice = 10;
+
 double wall_seconds() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
 }
@@ -61,6 +65,7 @@ DisplaySession::DisplaySession(const SessionOptions& session, const DisplayOptio
                   vars.at("profile"),
                   "--port",
                   std::to_string(options.port)};
+  view.nice = kDisplayNice;
   viewer_ = start_group(view, session.log_dir);
   if (options.browser.empty()) return;
 #ifndef THERMOVIS_HAVE_HTTPLIB
@@ -92,6 +97,9 @@ DisplaySession::DisplaySession(const SessionOptions& session, const DisplayOptio
   if (::geteuid() == 0) browser.command.push_back("--no-sandbox");
   browser.command.push_back(url());
   browser.restart = process::RestartPolicy::never;
+  // Only on CPU time the pipeline leaves: Chromium sets its own processes' niceness (to -8 for
+  // some, as root), so a niceness alone does not hold it back.
+  browser.idle = true;
   browser_ = start_group(browser, session.log_dir);
 }
 

@@ -44,7 +44,8 @@ Manifest parse_manifest(const std::string& yaml_text, const std::string& src) {
   std::set<std::string> names;
   for (const auto& node : services) {
     check_keys(src, node, "service",
-               {"name", "command", "env", "restart", "depends_on", "backoff", "stop_timeout_s"});
+               {"name", "command", "env", "restart", "depends_on", "backoff", "stop_timeout_s",
+                "nice", "idle"});
     ServiceSpec spec;
     spec.name = as_string(src, require(src, node, "service", "name"), "service.name");
     const std::string ctx = "services." + spec.name;
@@ -92,6 +93,14 @@ Manifest parse_manifest(const std::string& yaml_text, const std::string& src) {
     if (node["stop_timeout_s"]) {
       spec.stop_timeout_s = seconds(src, node["stop_timeout_s"], ctx + ".stop_timeout_s");
     }
+    if (node["nice"]) {
+      spec.nice = runtime::as_int(src, node["nice"], ctx + ".nice");
+      if (spec.nice < -20 || spec.nice > 19) {
+        throw ConfigError(where(src, node["nice"]) + ": " + ctx +
+                          ".nice: " + std::to_string(spec.nice) + " is not in [-20, 19]");
+      }
+    }
+    if (node["idle"]) spec.idle = runtime::as_bool(src, node["idle"], ctx + ".idle");
     manifest.services.push_back(std::move(spec));
   }
   try {

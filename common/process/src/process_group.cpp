@@ -1,8 +1,10 @@
 #include "thermovis/process/process_group.hpp"
 
 #include <fcntl.h>
+#include <sched.h>
 #include <signal.h>
 #include <sys/prctl.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -124,6 +126,11 @@ void ProcessGroup::spawn(Entry& e) {
     }
     const int null_in = open("/dev/null", O_RDONLY);
     if (null_in >= 0) dup2(null_in, STDIN_FILENO);
+    if (e.spec.nice != 0) (void)!setpriority(PRIO_PROCESS, 0, e.spec.nice);
+    if (e.spec.idle) {
+      const sched_param idle{};
+      (void)!sched_setscheduler(0, SCHED_IDLE, &idle);
+    }
     execvpe(c_argv[0], c_argv.data(), c_env.data());
     const int err = errno;
     (void)!write(report[1], &err, sizeof(err));

@@ -32,6 +32,18 @@ services:
   EXPECT_EQ(m.services[0].restart, tp::RestartPolicy::on_failure);
 }
 
+TEST(Manifest, ReadsABestEffortServicesScheduling) {
+  const auto m = tp::parse_manifest(
+      "services:\n  - {name: view, command: [a], nice: 10}\n  - {name: page, command: [b], "
+      "idle: true}\n",
+      "m.yaml");
+  EXPECT_EQ(m.services[0].nice, 10);
+  EXPECT_FALSE(m.services[0].idle);
+  EXPECT_TRUE(m.services[1].idle);
+  EXPECT_NE(error_of("services:\n  - {name: a, command: [x], nice: 30}\n").find("a.nice: 30"),
+            std::string::npos);
+}
+
 TEST(Manifest, SubstitutesKnownVariablesOnly) {
   EXPECT_EQ(tp::substitute("${bin}/x --d ${domain} ${other}", {{"bin", "/b"}, {"domain", "7"}}),
             "/b/x --d 7 ${other}");

@@ -1,7 +1,10 @@
 // Real child processes: restart with backoff, policies, stop, kill -9, missing executables.
 #include <gtest/gtest.h>
+#include <sched.h>
 #include <signal.h>
+#include <sys/resource.h>
 
+#include <cerrno>
 #include <chrono>
 #include <fstream>
 #include <string>
@@ -103,6 +106,37 @@ TEST(ProcessGroup, KilledServiceComesBackAndOthersKeepRunning) {
   EXPECT_EQ(group.status("a").state, tp::ServiceState::stopped);
   EXPECT_EQ(group.status("b").state, tp::ServiceState::stopped);
   EXPECT_NE(kill(b_pid, 0), 0);  // really gone
+}
+
+// A best-effort service (a display) runs with the niceness or the idle policy its spec gives, and
+// what it starts inherits them.
+TEST(ProcessGroup, ServicesRunWithTheirNicenessOrTheIdlePolicy) {
+  tp::Manifest m;
+  m.services.push_back(service("plain", {"/bin/sleep", "30"}, tp::RestartPolicy::never));
+  m.services.push_back(service("nice", {"/bin/sleep", "30"}, tp::RestartPolicy::never));
+  m.services.back().nice = 10;
+  m.services.push_back(service("idle", {"/bin/sleep", "30"}, tp::RestartPolicy::never));
+  m.services.back().idle = true;
+  tp::ProcessGroup group(m, {});
+  group.start_all();
+  // The exec'd program's niceness and policy (the child sets them between fork and exec).
+  const auto settle = [&](const char* name) {
+    const pid_t pid = group.status(name).pid;
+    poll_until(group, [&] {
+      std::ifstream comm("/proc/" + std::to_string(pid) + "/comm");
+      std::string text;
+      return std::getline(comm, text) && text == "sleep";
+    });
+    return pid;
+  };
+  const pid_t plain = settle("plain"), niced = settle("nice"), idle = settle("idle");
+  errno = 0;
+  EXPECT_EQ(getpriority(PRIO_PROCESS, static_cast<id_t>(niced)),
+            getpriority(PRIO_PROCESS, 0) + 10 > 19 ? 19 : getpriority(PRIO_PROCESS, 0) + 10);
+  EXPECT_EQ(getpriority(PRIO_PROCESS, static_cast<id_t>(plain)), getpriority(PRIO_PROCESS, 0));
+  EXPECT_EQ(sched_getscheduler(idle), SCHED_IDLE);
+  EXPECT_EQ(sched_getscheduler(plain), sched_getscheduler(0));
+  group.stop_all();
 }
 
 TEST(ProcessGroup, ServiceIgnoringSigtermIsKilledAfterItsTimeout) {
