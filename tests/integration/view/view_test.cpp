@@ -321,4 +321,37 @@ TEST(View, AViewerServingClientsOrKilledLeavesThePipelineRateUnchanged) {
   if (!HasFailure()) std::filesystem::remove_all(dir);  // else the logs stay for a look
 }
 
+// `thermovis bench pipeline --browser`: the display beside the pipeline with a headless browser
+// on its page, and what the page measured reported with the pipeline's figures.
+TEST(View, BenchPipelineWithABrowserReportsCaptureToPixels) {
+  if (!std::filesystem::exists("/usr/bin/chromium"))
+    GTEST_SKIP() << "chromium missing (/usr/bin/chromium; Debian package chromium)";
+  const auto dir = thermovis::test::temp_dir("bench_browser");
+  ChildProcess bench({(thermovis::test::bin_dir() / "thermovis").string(), "bench", "pipeline",
+                      "--seconds", "8", "--warmup", "4", "--browser", "/usr/bin/chromium",
+                      "--view-port", std::to_string(thermovis::test::free_port()), "--json",
+                      "--domain", std::to_string(thermovis::test::private_domain()), "--profile",
+                      tv::transport::kLoopbackProfile, "--log-dir", (dir / "logs").string()},
+                     dir / "bench.log");
+  ASSERT_EQ(bench.wait(180s), 0) << bench.log();
+  const auto j = thermovis::test::last_json_line(bench.log());
+  ASSERT_FALSE(j.is_null()) << bench.log();
+  EXPECT_GT(j["frames"].get<int>(), 100);
+  const auto& display = j["display"];
+  ASSERT_TRUE(display.is_object()) << j.dump();
+  EXPECT_GT(display["frames"].get<int>(), 5) << display.dump();
+  const double shown = display["capture_to_shown"]["p50_ms"].get<double>();
+  EXPECT_GE(shown, display["capture_to_range"]["p50_ms"].get<double>())
+      << "a frame cannot be shown before it was ranged";
+  EXPECT_LE(shown, display["capture_to_shown"]["p95_ms"].get<double>());
+  for (const char* process : {"view", "browser"}) {
+    ASSERT_TRUE(j["processes"].contains(process)) << j["processes"].dump();
+    EXPECT_GT(j["processes"][process]["rss_mb"].get<double>(), 0.0) << process;
+    EXPECT_FALSE(j["processes"][process]["cpu_percent"].is_null()) << process;
+  }
+  // The pipeline's own CPU budget leaves the display out.
+  EXPECT_FALSE(j["cpu_ms_per_capture"].contains("browser"));
+  if (!HasFailure()) std::filesystem::remove_all(dir);
+}
+
 }  // namespace
