@@ -126,7 +126,9 @@ void ProcessGroup::spawn(Entry& e) {
     }
     const int null_in = open("/dev/null", O_RDONLY);
     if (null_in >= 0) dup2(null_in, STDIN_FILENO);
-    if (e.spec.nice != 0) (void)!setpriority(PRIO_PROCESS, 0, e.spec.nice);
+    // Relative, as nice(1): a service niced by 10 stays 10 below the supervisor.
+    if (e.spec.nice != 0)
+      (void)!setpriority(PRIO_PROCESS, 0, getpriority(PRIO_PROCESS, 0) + e.spec.nice);
     if (e.spec.idle) {
       const sched_param idle{};
       (void)!sched_setscheduler(0, SCHED_IDLE, &idle);

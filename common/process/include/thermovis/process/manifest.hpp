@@ -26,7 +26,8 @@ struct ServiceSpec {
   double backoff_max_s = 5.0;           // restart delay ceiling
   double stable_after_s = 10.0;         // running this long resets the backoff
   double stop_timeout_s = 3.0;          // SIGTERM -> SIGKILL grace
-  // Scheduling of the process and what it starts: its niceness (0: as the supervisor's), or
+  // Scheduling of the process and what it starts: its niceness, added to the supervisor's as
+  // nice(1) does (0: the same; the kernel keeps the sum within -20..19), or
   // `idle` (SCHED_IDLE: it runs only on CPU time nothing else wants, whatever niceness it sets
   // itself, as Chromium does). For best-effort consumers such as a display, so that the
   // pipeline's stages take the CPU first.

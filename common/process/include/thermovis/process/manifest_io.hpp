@@ -9,7 +9,7 @@
 //       depends_on: []
 //       backoff: {initial_s: 0.1, max_s: 5.0, stable_after_s: 10}
 //       stop_timeout_s: 3
-//       nice: 0                    # -20..19; a best-effort service (a display): 10
+//       nice: 0                    # -20..19, added to the supervisor's; a display: 10
 //       idle: false                # true: SCHED_IDLE, only CPU time nothing else wants
 #include <filesystem>
 #include <string>
