@@ -35,6 +35,8 @@ range::TargetRange RangeStage::range_entry(const TargetEntry& entry, double& sha
       1e-3 * grid_px_per_rad_ *
       (entry.band == Band::infrared ? options_.region_floor_infrared_mrad
                                     : options_.region_floor_visible_mrad);
+  if (entry.band == Band::infrared)
+    options.systematic_disparity_px = 1e-3 * grid_px_per_rad_ * options_.points_floor_infrared_mrad;
   if (!options_.surface) options.shape = range::TargetShape::for_class(entry.label);
   shared_sigma_m = options.shape.empty() ? 0.0 : options.shape_sigma_m;
   const double to_centre = options_.surface ? 0.0 : range::surface_to_centre_m(entry.label);
