@@ -3,7 +3,6 @@
 #include <unistd.h>
 
 #include <chrono>
-#include <cmath>
 #include <filesystem>
 #include <stdexcept>
 #include <thread>
@@ -23,10 +22,6 @@ namespace {
 // The viewer's niceness: a best-effort consumer of the pipeline's results (not idle: it holds
 // loans of the fused frames while it copies them, and must not sit on one for long).
 constexpr int kDisplayNice = 10;
-
-double wall_seconds() {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
-}
 
 std::unique_ptr<process::ProcessGroup> start_group(process::ServiceSpec spec,
                                                    const std::string& log_dir) {
@@ -119,38 +114,20 @@ void DisplaySession::stop() {
   if (viewer_) viewer_->stop_all();
 }
 
-std::vector<ProcessCpu> DisplaySession::totals() const {
-  std::vector<ProcessCpu> out;
-  for (const auto* group : {viewer_.get(), browser_.get()}) {
-    if (group == nullptr) continue;
-    for (const auto& status : group->status()) {
-      ProcessCpu p;
-      p.service = status.name;
-      double rss = 0;
-      if (status.pid <= 0 || !process_group_usage(status.pid, p.cpu_s, rss)) p.cpu_s = std::nan("");
-      p.rss_mb = rss / 1e6;
-      out.push_back(p);
-    }
-  }
-  return out;
-}
-
 std::vector<ProcessCpu> DisplaySession::cpu() const {
-  std::vector<ProcessCpu> out = totals();
-  const double wall = wall_seconds() - mark_wall_s_;
-  for (ProcessCpu& p : out) {
-    double from = std::nan("");
-    for (const ProcessCpu& m : marks_)
-      if (m.service == p.service) from = m.cpu_s;
-    p.cpu_s -= from;  // NaN without a mark (started since) or when gone
-    p.cpu_percent = 100.0 * p.cpu_s / wall;
+  std::vector<ProcessCpu> out = marks_.since(viewer_->status());
+  if (browser_) {
+    for (const ProcessCpu& p : marks_.since(browser_->status())) out.push_back(p);
   }
   return out;
 }
 
 void DisplaySession::reset_statistics() {
-  marks_ = totals();
-  mark_wall_s_ = wall_seconds();
+  std::vector<process::ServiceStatus> services = viewer_->status();
+  if (browser_) {
+    for (const auto& status : browser_->status()) services.push_back(status);
+  }
+  marks_.mark(services);
 }
 
 nlohmann::json DisplaySession::latency() const {

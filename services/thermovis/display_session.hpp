@@ -48,12 +48,9 @@ class DisplaySession {
   nlohmann::json latency() const;
 
  private:
-  std::vector<ProcessCpu> totals() const;  // CPU since each process started
-
   DisplayOptions options_;
   std::unique_ptr<process::ProcessGroup> viewer_, browser_;
-  std::vector<ProcessCpu> marks_;
-  double mark_wall_s_ = 0.0;
+  CpuMarks marks_{true};  // every process of each one's group: a browser runs several
 };
 
 }  // namespace thermovis::cli

@@ -59,15 +59,9 @@ bool read_process_usage(int pid, double& cpu_s, double& rss_bytes) {
   return true;
 }
 
-std::string fixed(double value, int digits) {
-  std::ostringstream out;
-  out << std::fixed << std::setprecision(digits) << value;
-  return out.str();
-}
-
-}  // namespace
-
-bool process_group_usage(int pgid, double& cpu_s, double& rss_bytes) {
+// User + system CPU seconds (with the children it waited for) and resident bytes of every live
+// process of process group `pgid`; false when the group has no process.
+bool read_group_usage(int pgid, double& cpu_s, double& rss_bytes) {
   cpu_s = rss_bytes = 0;
   bool any = false;
   std::error_code error;
@@ -86,6 +80,14 @@ bool process_group_usage(int pgid, double& cpu_s, double& rss_bytes) {
   }
   return any;
 }
+
+std::string fixed(double value, int digits) {
+  std::ostringstream out;
+  out << std::fixed << std::setprecision(digits) << value;
+  return out.str();
+}
+
+}  // namespace
 
 void add_session_options(CLI::App& app, SessionOptions& s) {
   if (const char* env = std::getenv("THERMOVIS_DOMAIN"); env != nullptr && *env != '\0')
@@ -223,29 +225,42 @@ void PipelineSession::reset_statistics() {
   supervisor_->reset_statistics();
   frames_ = 0;
   checked_.clear();
-  cpu_marks_.clear();
-  for (const auto& status : supervisor_->services()) {
-    CpuMark mark;
+  cpu_marks_.mark(supervisor_->services());
+}
+
+std::vector<ProcessCpu> PipelineSession::cpu() const {
+  return cpu_marks_.since(supervisor_->services());
+}
+
+bool CpuMarks::usage(int pid, double& cpu_s, double& rss_bytes) const {
+  return pid > 0 && (whole_group_ ? read_group_usage(pid, cpu_s, rss_bytes)
+                                  : read_process_usage(pid, cpu_s, rss_bytes));
+}
+
+void CpuMarks::mark(const std::vector<process::ServiceStatus>& services) {
+  marks_.clear();
+  for (const auto& status : services) {
+    Mark mark;
     double rss = 0;
-    if (status.pid > 0 && read_process_usage(status.pid, mark.cpu_s, rss)) {
+    if (usage(status.pid, mark.cpu_s, rss)) {
       mark.wall_s = wall_seconds();
-      cpu_marks_[status.pid] = mark;
+      marks_[status.pid] = mark;
     }
   }
 }
 
-std::vector<ProcessCpu> PipelineSession::cpu() const {
+std::vector<ProcessCpu> CpuMarks::since(const std::vector<process::ServiceStatus>& services) const {
   std::vector<ProcessCpu> out;
-  for (const auto& status : supervisor_->services()) {
+  for (const auto& status : services) {
     ProcessCpu p;
     p.service = status.name;
     double cpu_s = 0, rss = 0;
-    if (status.pid > 0 && read_process_usage(status.pid, cpu_s, rss)) {
-      const auto mark = cpu_marks_.find(status.pid);
-      const CpuMark from = mark == cpu_marks_.end() ? CpuMark{} : mark->second;
+    if (usage(status.pid, cpu_s, rss)) {
+      const auto mark = marks_.find(status.pid);
+      const Mark from = mark == marks_.end() ? Mark{} : mark->second;
       const double wall = wall_seconds() - from.wall_s;
       // Without a mark (restarted since) the figure is over the process's life: unknown here.
-      const bool known = mark != cpu_marks_.end() && wall > 0;
+      const bool known = mark != marks_.end() && wall > 0;
       p.cpu_s = known ? cpu_s - from.cpu_s : std::nan("");
       p.cpu_percent = known ? 100.0 * p.cpu_s / wall : std::nan("");
       p.rss_mb = rss / 1e6;

@@ -71,10 +71,25 @@ struct ProcessCpu {
   double rss_mb = 0.0;       // resident memory now
 };
 
-// User + system CPU seconds (with its reaped children's) and resident bytes of every live process
-// of process group `pgid`: a service and its helpers (process::ProcessGroup starts each service
-// in a group of its own). False when the group has no process.
-bool process_group_usage(int pgid, double& cpu_s, double& rss_bytes);
+// CPU of processes since a mark, by pid: a process started since (restarted) has no mark and
+// its figures are unknown (NaN). `whole_group`: each service's whole process group (a service
+// and the helpers it starts, such as a browser's; process::ProcessGroup starts each service in
+// a group of its own), with the time of the children they have waited for.
+class CpuMarks {
+ public:
+  explicit CpuMarks(bool whole_group = false) : whole_group_(whole_group) {}
+  void mark(const std::vector<process::ServiceStatus>& services);
+  std::vector<ProcessCpu> since(const std::vector<process::ServiceStatus>& services) const;
+
+ private:
+  struct Mark {
+    double cpu_s = 0.0;
+    double wall_s = 0.0;
+  };
+  bool usage(int pid, double& cpu_s, double& rss_bytes) const;
+  bool whole_group_;
+  std::map<int, Mark> marks_;  // by pid
+};
 
 // A service killed on purpose (SIGKILL) during a session, and how long the ranges stopped.
 struct ServiceOutage {
@@ -128,11 +143,7 @@ class PipelineSession {
   std::unique_ptr<node::GeometrySubscriber> geometry_;
   std::uint64_t frames_ = 0;
   std::vector<CheckedRange> checked_;
-  struct CpuMark {
-    double cpu_s = 0.0;
-    double wall_s = 0.0;
-  };
-  std::map<int, CpuMark> cpu_marks_;  // by pid
+  CpuMarks cpu_marks_;
   std::vector<ServiceOutage> outages_;
   std::vector<std::int64_t> killed_ns_;  // capture clock at each kill (transport::now_ns)
   std::vector<std::chrono::steady_clock::time_point> killed_at_, last_before_kill_;

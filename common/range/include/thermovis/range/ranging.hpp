@@ -137,7 +137,7 @@ struct RangeOptions {
   int max_rejection_passes = 1;  // Eq. 34 passes (1 = the paper's)
   // How far apart two points of one target may range (reject_outliers_eq34's windows): the
   // larger of this share of the distance (a person's depth at 5 m) and this many pixels of
-  // disparity noise (far targets). 0: no nearest-group screen.
+  // disparity noise (far targets). Both 0: no nearest-group screen.
   double group_relative = 0.06;
   double group_disparity_px = 0.5;
   // Non-empty: each point's distance is moved to the target's centre by the shape (see
@@ -228,9 +228,10 @@ TargetRange combine_ranges(const TargetRange& a, const TargetRange& b,
 
 // The gross-outlier screen then Eq. 34 (max_passes passes): the indices of the kept values.
 // `windows` (optional, one per value, in the values' unit) is how far a value of the target
-// itself may lie from another: with them the screen first keeps the nearest dense group, the
-// values within two windows of the smallest value that has at least 30 % of all values (and 3)
-// within its window. Without them, or with no such value, the gross screen below alone.
+// itself may lie from another: with them the screen first keeps the nearest dense group, anchored
+// by the smallest value that has at least 30 % of all values (and 3) within its window, and
+// made of the values within two windows of that group's mode; Eq. 34 then trims it, but not
+// below 3 values. Without them, or with no such value, the gap-and-median screen alone.
 std::vector<int> reject_outliers_eq34(const std::vector<double>& values, int max_passes,
                                       const std::vector<double>& windows = {});
 
