@@ -63,6 +63,15 @@ THERMOVIS_COMMAND(
                      "character is even (detect-eval --frames eval takes the others)")
           ->required();
       app.add_option("--out", opt->out, "model file to write (.yml or .yml.gz)")->required();
+      app.add_option("--positive-iou", opt->training.positive_iou,
+                     "a candidate this close to a person box is a person sample")
+          ->capture_default_str();
+      app.add_option("--negative-iou", opt->training.negative_iou,
+                     "one overlapping no person box this much is a background sample")
+          ->capture_default_str();
+      app.add_option("--max-negatives", opt->training.max_negatives_per_frame,
+                     "background samples per frame, thinned evenly (0 = all)")
+          ->capture_default_str();
       app.add_option("--weak-count", opt->training.weak_count, "boosted trees")
           ->capture_default_str();
       app.add_option("--max-depth", opt->training.max_depth, "depth of each tree")

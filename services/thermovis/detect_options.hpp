@@ -18,6 +18,7 @@ struct DetectorFlags {
   std::string model;  // empty: the shipped one
   std::string visible_detector = "hog";
   int visible_max_side_px = -1;  // -1: the library default
+  double min_score = 0.0;
 
   void add_to(CLI::App& app) {
     app.add_option("--band", band, "infrared, visible or fused (infrared + visible)")
@@ -29,6 +30,9 @@ struct DetectorFlags {
     app.add_option(
         "--model", model,
         "classifier model file (default: the shipped " + std::string(kShippedModel) + ")");
+    app.add_option("--min-score", min_score,
+                   "classifier: the score an infrared box needs (the trees' vote; > 0 person)")
+        ->capture_default_str();
     app.add_option("--visible-detector", visible_detector,
                    "visible band: hog, haar-fullbody or haar-upperbody")
         ->capture_default_str();
@@ -42,6 +46,7 @@ struct DetectorFlags {
     o.band = detect::parse_band(band);
     o.visible_method = detect::parse_visible_method(visible_detector);
     if (visible_max_side_px >= 0) o.visible_max_side_px = visible_max_side_px;
+    o.min_score = min_score;
     if (infrared_detector == "classifier") {
       o.infrared_model =
           model.empty() ? runtime::shipped_file(kShippedModel) : std::filesystem::path(model);

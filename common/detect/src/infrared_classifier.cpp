@@ -1,11 +1,14 @@
 #include "thermovis/detect/infrared_classifier.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/ml.hpp>
 #include <opencv2/objdetect.hpp>
 #include <stdexcept>
+#include <utility>
 
 namespace thermovis::detect {
 
@@ -37,21 +40,46 @@ struct FieldStats {
   bool valid = false;
 };
 
+// The grey level below which the share p (percent) of a histogram's count lies.
+double histogram_percentile(const std::array<double, 256>& histogram, double total, double p) {
+  const double want = p / 100.0 * (total - 1.0);
+  double below = 0;
+  for (int v = 0; v < 256; ++v) {
+    below += histogram[static_cast<std::size_t>(v)];
+    if (below > want) return v;
+  }
+  return 255;
+}
+
+// Median, robust sigma (1.4826 MAD) and a top percentile of the field (pixels > 0) of an 8-bit
+// frame, from its histogram on a 1-in-16 subsample.
 FieldStats field_stats(const cv::Mat& ir8, double top_percentile) {
-  std::vector<float> s = field_samples(ir8);
+  std::array<double, 256> histogram{};
+  double total = 0;
+  for (int y = 0; y < ir8.rows; y += 4) {
+    const std::uint8_t* row = ir8.ptr<std::uint8_t>(y);
+    for (int x = 0; x < ir8.cols; x += 4) {
+      if (row[x] == 0) continue;
+      histogram[row[x]] += 1;
+      total += 1;
+    }
+  }
   FieldStats f;
-  if (s.size() < 16) return f;
-  f.top = percentile(s, top_percentile);
-  f.median = percentile(s, 50.0);
-  for (float& v : s) v = std::abs(v - static_cast<float>(f.median));
-  f.sigma = std::max(1.0, 1.4826 * percentile(s, 50.0));
+  if (total < 16) return f;
+  f.top = histogram_percentile(histogram, total, top_percentile);
+  f.median = histogram_percentile(histogram, total, 50.0);
+  std::array<double, 256> deviation{};
+  for (int v = 1; v < 256; ++v)
+    deviation[static_cast<std::size_t>(std::abs(v - static_cast<int>(f.median)))] +=
+        histogram[static_cast<std::size_t>(v)];
+  f.sigma = std::max(1.0, 1.4826 * histogram_percentile(deviation, total, 50.0));
   f.valid = true;
   return f;
 }
 
 // Features of a candidate beyond HOG (all without units: ratios and grey levels in robust
 // sigmas of the field), then the HOG window.
-constexpr int kShapeFeatures = 9;
+constexpr int kShapeFeatures = 10;
 const cv::Size kWindow(20, 20);
 constexpr double kMargin = 0.25;  // context around the box, in box sizes on each side
 
@@ -76,6 +104,55 @@ cv::Mat crop_replicate(const cv::Mat& image, const cv::Rect& rect) {
   return out;
 }
 
+// The rows (or columns) of own that hold a pixel within [from, to) of the other axis: the
+// extent [first, last] along the axis, or first > last when there is none.
+std::pair<int, int> extent_along(const cv::Mat& own, bool rows, int from, int to) {
+  const cv::Mat part = rows ? own.colRange(from, to) : own.rowRange(from, to);
+  cv::Mat profile;
+  cv::reduce(part, profile, rows ? 1 : 0, cv::REDUCE_MAX);
+  const int n = static_cast<int>(profile.total());
+  const std::uint8_t* p = profile.ptr<std::uint8_t>();
+  int first = 0, last = n - 1;
+  while (first < n && p[first] == 0) ++first;
+  while (last >= first && p[last] == 0) --last;
+  return {first, last};
+}
+
+// Person-shaped windows across (wide) or down (tall) a component's box, each fitted to the
+// component's pixels inside it (own: the component's mask over its box).
+void add_split_windows(const cv::Mat& own, const cv::Rect& box, const Candidate& parent,
+                       const CandidateOptions& o, std::vector<Candidate>& out) {
+  if (std::max(box.width, box.height) < o.split_min_px) return;
+  const bool wide = box.width > o.split_wide * box.height;
+  const bool tall = box.height > o.split_tall * box.width;
+  if (!wide && !tall) return;
+  const int along = wide ? box.width : box.height;   // the axis the windows slide on
+  const int across = wide ? box.height : box.width;  // the other one
+  for (const double r : wide ? o.split_widths : o.split_heights) {
+    const int size = static_cast<int>(std::lround(r * across));
+    if (size < 2 || size >= 0.85 * along) continue;
+    const int stride = std::max(1, size / 3);
+    for (int a = 0;; a += stride) {
+      a = std::min(a, along - size);
+      const auto [first, last] = extent_along(own, wide, a, a + size);
+      if (first <= last) {
+        const cv::Rect local = wide ? cv::Rect(a, first, size, last - first + 1)
+                                    : cv::Rect(first, a, last - first + 1, size);
+        const double filled = cv::countNonZero(own(local));
+        if (filled >= o.split_min_fill * local.area() && local.height >= o.min_height_px) {
+          Candidate c = parent;
+          c.box = local + box.tl();
+          c.area_px = filled;
+          c.growth = 0.0;
+          c.split = true;
+          out.push_back(c);
+        }
+      }
+      if (a + size >= along) break;
+    }
+  }
+}
+
 void add_components(const cv::Mat& ir8, const cv::Rect& roi, const cv::Mat& inside,
                     const std::vector<double>& thresholds, int level, double parent_area,
                     const CandidateOptions& o, std::vector<Candidate>& out) {
@@ -91,6 +168,8 @@ void add_components(const cv::Mat& ir8, const cv::Rect& roi, const cv::Mat& insi
     if (area < o.min_area_px) continue;
     const cv::Rect& local = components[k].box;
     const cv::Rect box = local + roi.tl();
+    cv::Mat own;
+    cv::compare(labels(local), cv::Scalar(i), own, cv::CMP_EQ);
     if (area <= too_large && box.height >= o.min_height_px) {
       Candidate c;
       c.level = level;
@@ -104,10 +183,9 @@ void add_components(const cv::Mat& ir8, const cv::Rect& roi, const cv::Mat& insi
         c.growth = g;
         out.push_back(c);
       }
+      add_split_windows(own, box, c, o, out);
     }
     if (level + 1 < static_cast<int>(thresholds.size())) {
-      cv::Mat own;
-      cv::compare(labels(local), cv::Scalar(i), own, cv::CMP_EQ);
       add_components(ir8, box, own, thresholds, level + 1, area, o, out);
     }
   }
@@ -180,6 +258,7 @@ cv::Mat candidate_features(const cv::Mat& ir8, const std::vector<Candidate>& can
     row[6] = static_cast<float>(c.area_px / std::max(1.0, c.parent_area_px));
     row[7] = static_cast<float>(sd_box[0] / f.sigma);
     row[8] = static_cast<float>(c.growth);
+    row[9] = c.split ? 1.0F : 0.0F;
     std::copy(descriptor.begin(), descriptor.end(), row + kShapeFeatures);
   }
   return features;
@@ -230,6 +309,7 @@ int collect_training_samples(const cv::Mat& infrared, const std::vector<cv::Rect
   const std::vector<Candidate> candidates = infrared_candidates(ir8, candidate_options);
   const cv::Mat features = candidate_features(ir8, candidates);
   std::vector<bool> found(persons.size(), false);
+  std::vector<TrainingSample> negatives;
   for (std::size_t i = 0; i < candidates.size(); ++i) {
     double best = 0.0;
     for (std::size_t k = 0; k < persons.size(); ++k) {
@@ -249,8 +329,14 @@ int collect_training_samples(const cv::Mat& infrared, const std::vector<cv::Rect
       label = 0;
     }
     if (label < 0) continue;
-    samples.push_back({features.row(static_cast<int>(i)).clone(), label});
+    (label == 1 ? samples : negatives)
+        .push_back({features.row(static_cast<int>(i)).clone(), label});
   }
+  const std::size_t keep =
+      options.max_negatives_per_frame > 0
+          ? std::min(negatives.size(), static_cast<std::size_t>(options.max_negatives_per_frame))
+          : negatives.size();
+  for (std::size_t k = 0; k < keep; ++k) samples.push_back(negatives[k * negatives.size() / keep]);
   return static_cast<int>(std::count(found.begin(), found.end(), true));
 }
 

@@ -4,7 +4,9 @@
 //     the 1st to the 99.9th percentile of the field's pixels onto 1..255; 0 stays outside);
 //  2. candidates: warm regions at several thresholds, nested (a level's components are searched
 //     for warmer components inside their boxes), so that people touching one another or
-//     standing on warm ground still come out as components of their own at some level;
+//     standing on warm ground still come out as components of their own at some level; a
+//     component too wide or too tall for one person also gives person-shaped windows across
+//     it, fitted to its pixels (people touching at the same warmth never part at a threshold);
 //  3. each candidate is described by HOG on its box with a margin (resized to a fixed window,
 //     so the description does not depend on the person's size in pixels) and by scale-free
 //     shape and contrast features (aspect, fill, contrast to the ring around the box, to the
@@ -30,6 +32,17 @@ struct CandidateOptions {
   // Each component gives a box per growth: its own (0) and ones grown by that fraction of its
   // size on each side; the classifier picks the one that fits the person.
   std::vector<double> box_growth = {0.0, 0.1, 0.25};
+  // People touching side by side or one behind the other (seen from above) form one component
+  // at every threshold. A component wider than split_wide x its height gives person-shaped
+  // windows across it (widths split_widths x its height), one taller than split_tall x its
+  // width gives windows down it (heights split_heights x its width); each window's other extent
+  // is fitted to the component's pixels inside it. Components under split_min_px are not split.
+  double split_wide = 0.6;
+  std::vector<double> split_widths = {0.35, 0.5};
+  double split_tall = 3.5;
+  std::vector<double> split_heights = {2.5, 3.2};
+  int split_min_px = 16;
+  double split_min_fill = 0.25;  // a window needs this share of its pixels in the component
 };
 
 struct Candidate {
@@ -39,6 +52,7 @@ struct Candidate {
   double threshold = 0;       // grey level of its threshold (8-bit)
   double parent_area_px = 0;  // of the enclosing component one level down (own area at level 0)
   double growth = 0;          // the box is the component's grown by this on each side
+  bool split = false;         // a window inside a component (box fitted), not its own box
 };
 
 // The 8-bit image candidates and features are computed on (see 1. above). Throws
@@ -77,6 +91,9 @@ struct TrainingSample {
 struct TrainingOptions {
   double positive_iou = 0.5;  // a candidate this close to a person box is one
   double negative_iou = 0.3;  // one that overlaps no person (or don't-care box) this much is not
+  // Negatives of one frame beyond this are thinned evenly (the warm ground of one frame gives
+  // thousands of near-identical ones); 0 = keep all.
+  int max_negatives_per_frame = 0;
   int weak_count = 150;
   int max_depth = 2;
 };
