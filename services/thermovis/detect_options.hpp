@@ -9,8 +9,7 @@
 
 namespace thermovis::cli {
 
-// Trained by `thermovis detect-train` on the training frames of the shared annotated sets.
-inline constexpr const char* kShippedModel = "models/person_ir.yml.gz";
+inline constexpr const char* kShippedModel = detect::kShippedInfraredModel;
 
 struct DetectorFlags {
   std::string band = "infrared";

@@ -21,6 +21,11 @@
 
 namespace thermovis::detect {
 
+// The infrared classifier shipped with thermovis (trained by `thermovis detect-train` on the
+// training frames of the shared annotated sets), relative to the shipped files' folder
+// (runtime::shipped_file).
+inline constexpr const char* kShippedInfraredModel = "models/person_ir.yml.gz";
+
 enum class Band { infrared, visible, fused };
 Band parse_band(const std::string& name);  // "infrared", "visible", "fused"
 std::string band_name(Band band);

@@ -1,24 +1,34 @@
 #pragma once
-// Stage 2: people in the left eye of the pipeline grid. Warm blobs on the rectified infrared
-// counts (detect/detectors.hpp: the grid's rows give the ground prior), optionally OpenCV's HOG
-// people detector on the fused image, merged by non-maximum suppression, strongest first.
+// Stage 2: people in the left eye of the pipeline grid. On the rectified infrared (the grid's
+// rows give the ground prior): warm blobs (detect/detectors.hpp, tuned on the simulator), or the
+// trained infrared classifier of detect/person_detector.hpp (candidates scored by boosted trees,
+// trained on real annotated frames) when a model is given. Optionally OpenCV's HOG people
+// detector on the fused image. Merged by non-maximum suppression, strongest first.
+#include <filesystem>
+#include <memory>
 #include <opencv2/core/mat.hpp>
 #include <vector>
 
 #include "thermovis/detect/detectors.hpp"
+#include "thermovis/detect/person_detector.hpp"
 #include "thermovis/pipeline/geometry.hpp"
 
 namespace thermovis::pipeline {
 
 struct DetectOptions {
-  detect::WarmBlobOptions blobs;
-  bool hog = false;  // also run the HOG people detector on the fused left image
+  detect::WarmBlobOptions blobs;  // also the classifier's person-height check on the ground
+  // The infrared classifier's model file (detect::kShippedInfraredModel is the shipped one);
+  // empty: warm blobs.
+  std::filesystem::path infrared_model;
+  double min_score = 0.0;  // classifier: the trees' vote a box needs
+  bool hog = false;        // also run the HOG people detector on the fused left image
   detect::HogOptions hog_options{0.5, 0.0, 1.05};
   double nms_iou = 0.3;
 };
 
 class DetectStage {
  public:
+  // Throws std::runtime_error naming the file when the infrared model cannot be read.
   DetectStage(const PipelineGeometry& geometry, const DetectOptions& options = {});
   bool wants_fused() const { return options_.hog; }
   // infrared: the rectified left infrared (CV_16UC1 counts or CV_8UC1) on the grid; fused: the
@@ -29,6 +39,7 @@ class DetectStage {
  private:
   camera::RectifiedCamera grid_;
   DetectOptions options_;
+  std::shared_ptr<detect::PersonDetector> classifier_;  // with a model only
 };
 
 }  // namespace thermovis::pipeline
