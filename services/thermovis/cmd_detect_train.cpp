@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
+#include <opencv2/core.hpp>
 #include <stdexcept>
 
 #include "command.hpp"
@@ -18,6 +19,7 @@ struct Options {
   std::vector<std::string> dirs;
   std::string out;
   dt::TrainingOptions training;
+  bool mirror = false;
 };
 
 int run_detect_train(const Options& opt) {
@@ -37,6 +39,18 @@ int run_detect_train(const Options& opt) {
       }
       reachable += dt::collect_training_samples(images.infrared, frame.persons, frame.dont_care,
                                                 dt::CandidateOptions{}, opt.training, samples);
+      if (opt.mirror) {
+        // The frame mirrored left to right: people seen from the other side, twice the samples.
+        const int w = images.infrared.cols;
+        auto mirrored = [w](std::vector<cv::Rect> boxes) {
+          for (cv::Rect& b : boxes) b.x = w - b.x - b.width;
+          return boxes;
+        };
+        cv::Mat flipped;
+        cv::flip(images.infrared, flipped, 1);
+        dt::collect_training_samples(flipped, mirrored(frame.persons), mirrored(frame.dont_care),
+                                     dt::CandidateOptions{}, opt.training, samples);
+      }
       persons += static_cast<int>(frame.persons.size());
       ++frames;
     }
@@ -72,6 +86,7 @@ THERMOVIS_COMMAND(
       app.add_option("--max-negatives", opt->training.max_negatives_per_frame,
                      "background samples per frame, thinned evenly (0 = all)")
           ->capture_default_str();
+      app.add_flag("--mirror", opt->mirror, "also train on every frame mirrored left to right");
       app.add_option("--weak-count", opt->training.weak_count, "boosted trees")
           ->capture_default_str();
       app.add_option("--max-depth", opt->training.max_depth, "depth of each tree")

@@ -18,6 +18,7 @@ struct DetectorFlags {
   std::string visible_detector = "hog";
   int visible_max_side_px = -1;  // -1: the library default
   double min_score = 0.0;
+  double nms_iou = -1;  // -1: the library default
 
   void add_to(CLI::App& app) {
     app.add_option("--band", band, "infrared, visible or fused (infrared + visible)")
@@ -32,6 +33,9 @@ struct DetectorFlags {
     app.add_option("--min-score", min_score,
                    "classifier: the score an infrared box needs (the trees' vote; > 0 person)")
         ->capture_default_str();
+    app.add_option("--nms-iou", nms_iou,
+                   "a box overlapping a better one by more than this IoU is dropped (default "
+                   "0.4)");
     app.add_option("--visible-detector", visible_detector,
                    "visible band: hog, haar-fullbody or haar-upperbody")
         ->capture_default_str();
@@ -46,6 +50,7 @@ struct DetectorFlags {
     o.visible_method = detect::parse_visible_method(visible_detector);
     if (visible_max_side_px >= 0) o.visible_max_side_px = visible_max_side_px;
     o.min_score = min_score;
+    if (nms_iou >= 0) o.nms_iou = nms_iou;
     if (infrared_detector == "classifier") {
       o.infrared_model =
           model.empty() ? runtime::shipped_file(kShippedModel) : std::filesystem::path(model);
