@@ -97,6 +97,30 @@ std::vector<Run> plan(const Options& opt, const fs::path& data, const fs::path& 
                   {"fuse-eval", "--dir", d + "/fusion/vifb", "--method",
                    q ? "fast" : "vsmwls,vsmwls-paper,fast", "--json"},
                   ""});
+  // People on real annotated frames (eval frames: never trained on), each set and detector.
+  struct DetectRun {
+    std::string set, label;
+    std::vector<std::string> flags;
+  };
+  std::vector<DetectRun> detect_runs{{"llvip_dev", "infrared classifier", {}}};
+  if (!q) {
+    detect_runs.push_back({"llvip_dev", "infrared warm blobs", {"--ir-detector", "warm-blob"}});
+    detect_runs.push_back({"llvip_dev", "visible HOG", {"--band", "visible"}});
+    detect_runs.push_back({"llvip_dev",
+                           "visible Haar full body",
+                           {"--band", "visible", "--visible-detector", "haar-fullbody"}});
+    detect_runs.push_back({"llvip_dev",
+                           "visible Haar upper body",
+                           {"--band", "visible", "--visible-detector", "haar-upperbody"}});
+    detect_runs.push_back({"llvip_dev", "fused (classifier + HOG)", {"--band", "fused"}});
+    detect_runs.push_back({"hituav_train", "infrared classifier", {}});
+    detect_runs.push_back({"hituav_train", "infrared warm blobs", {"--ir-detector", "warm-blob"}});
+  }
+  for (const auto& r : detect_runs) {
+    std::vector<std::string> args{"detect-eval", "--dir", d + "/detect/" + r.set, "--json"};
+    args.insert(args.end(), r.flags.begin(), r.flags.end());
+    runs.push_back({"detection", r.set + ": " + r.label, args, ""});
+  }
   // Board inner corners (columns x rows) and square size of each set: ../shared/data/calib.
   struct Set {
     std::string name, board, square;
@@ -430,6 +454,30 @@ std::string fusion_tables(const std::vector<json>& rows) {
   return s + table_row(ms);
 }
 
+// One row per set and detector: AP50 (VOC all-point), precision and recall at the detector's
+// operating point, AP50 per person height, ms per image.
+std::string detection_tables(const std::vector<std::pair<std::string, json>>& runs) {
+  std::string s = table_head({"set: detector", "images", "persons", "AP50", "precision", "recall",
+                              "AP50 <30 px", "AP50 30-80 px", "AP50 >80 px", "ms per image"});
+  for (const auto& [label, r] : runs) {
+    std::vector<std::string> line{label,
+                                  std::to_string(r.at("images").get<int>()),
+                                  std::to_string(r.at("persons").get<int>()),
+                                  fixed(r.at("ap50"), 3),
+                                  fixed(r.at("precision"), 3),
+                                  fixed(r.at("recall"), 3)};
+    for (const auto& bucket : r.at("by_height")) {
+      line.push_back(bucket.at("persons").get<int>() > 0
+                         ? fixed(bucket.at("ap50"), 3) + " (" +
+                               std::to_string(bucket.at("persons").get<int>()) + ")"
+                         : "-");
+    }
+    line.push_back(fixed(r.at("ms_per_image"), 1));
+    s += table_row(line);
+  }
+  return s;
+}
+
 std::string calibration_tables(const std::vector<std::pair<std::string, json>>& sets) {
   std::string s = table_head({"set", "images used", "corners used (left out)", "rms_2d_px",
                               "linear initialisation rms_2d_px", "a0", "centre (row, col)"});
@@ -494,6 +542,8 @@ const std::vector<Section> kSections{
     {"ranging", "Ranging error per distance (the paper's Table 6) on the simulated rig"},
     {"match", "Stereo matching on Middlebury 2014 (quarter size)"},
     {"fusion", "Infrared/visible fusion on VIFB"},
+    {"detection",
+     "People on real annotated frames (the evaluation frames of each set, never trained on)"},
     {"calibration", "Taylor (OCamCalib) calibration of the sample sets (every image of a set)"},
     {"pipeline", "The whole pipeline (50 Hz, full-resolution simulated frames)"}};
 
@@ -575,6 +625,11 @@ std::string format_report(const fs::path& dir) {
       if (section.kind == "match") md << match_tables(runs.front().second);
       if (section.kind == "fusion") md << fusion_tables(runs.front().second);
       if (section.kind == "pipeline") md << pipeline_tables(runs.front().second);
+      if (section.kind == "detection") {
+        std::vector<std::pair<std::string, json>> sets;
+        for (const auto& [run, rows] : runs) sets.emplace_back(run.at("label"), rows.front());
+        md << detection_tables(sets);
+      }
       if (section.kind == "calibration") {
         std::vector<std::pair<std::string, json>> sets;
         for (const auto& [run, rows] : runs) sets.emplace_back(run.at("label"), rows.front());

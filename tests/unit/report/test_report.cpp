@@ -53,7 +53,15 @@ fs::path canned_runs(const std::string& name) {
       {"kind": "calibration", "label": "fisheye1", "file": "3-calibration.jsonl",
        "command": "thermovis calibrate --images D/calib/ocamcalib_fisheye1 --json"},
       {"kind": "calibration", "label": "ladybug", "file": "4-calibration.jsonl",
-       "command": "thermovis calibrate --images D/calib/ocamcalib_ladybug --json"}]})");
+       "command": "thermovis calibrate --images D/calib/ocamcalib_ladybug --json"},
+      {"kind": "detection", "label": "llvip_dev: infrared classifier", "file": "5-detection.jsonl",
+       "command": "thermovis detect-eval --dir D/detect/llvip_dev --json"}]})");
+  write(dir / "5-detection.jsonl",
+        R"({"persons":91,"detections":182,"true_positives":68,"ap50":0.5754,"precision":0.3736,)"
+        R"("recall":0.7473,"images":21,"ms_per_image":34.31,"by_height":[)"
+        R"({"bucket":"<30","persons":0,"ap50":0},{"bucket":"30-80","persons":0,"ap50":0},)"
+        R"({"bucket":">80","persons":91,"ap50":0.5968}],"errors":[]})"
+        "\n");
   write(dir / "1-ranging.jsonl",
         "trial 1/2 done (3 s)\n" +
             ranging_row(5, "visible", 2, "0.0214", "-0.0104", "0.0391", "0.5", "0.0183", 0.18) +
@@ -116,6 +124,11 @@ TEST(Report, FormatsCannedRowsIntoTablesNamingTheirCommands) {
       << md;
   EXPECT_NE(md.find("| ladybug | 15/15 | 720 (0) | 0.3966 |"), std::string::npos) << md;
   EXPECT_NE(md.find("`thermovis calibrate --images D/calib/ocamcalib_ladybug --json`"),
+            std::string::npos)
+      << md;
+  // Detection: one row per set and detector; a height bucket without people shows "-".
+  EXPECT_NE(md.find("| llvip_dev: infrared classifier | 21 | 91 | 0.575 | 0.374 | 0.747 | - | - | "
+                    "0.597 (91) | 34.3 |\n"),
             std::string::npos)
       << md;
   // Sections without runs (fusion, pipeline) are left out rather than printed empty.
