@@ -225,29 +225,84 @@ std::vector<Candidate> infrared_candidates(const cv::Mat& ir8, const CandidateOp
   return out;
 }
 
+// Sums of an 8-bit image over rectangles with fractional edges, from its integral image: the
+// pixels are constant over their unit squares, so the integral is bilinear within each one.
+class AreaSums {
+ public:
+  explicit AreaSums(const cv::Mat& ir8) { cv::integral(ir8, integral_, CV_32S); }
+  double at(double x, double y) const {  // sum over [0, x) x [0, y)
+    const int x0 = std::min(static_cast<int>(x), integral_.cols - 2);
+    const int y0 = std::min(static_cast<int>(y), integral_.rows - 2);
+    const double fx = x - x0, fy = y - y0;
+    const int* r0 = integral_.ptr<int>(y0);
+    const int* r1 = integral_.ptr<int>(y0 + 1);
+    return (1 - fy) * ((1 - fx) * r0[x0] + fx * r0[x0 + 1]) +
+           fy * ((1 - fx) * r1[x0] + fx * r1[x0 + 1]);
+  }
+  double sum(double x0, double y0, double x1, double y1) const {
+    return at(x1, y1) - at(x0, y1) - at(x1, y0) + at(x0, y0);
+  }
+  double sum(const cv::Rect& r) const {
+    const int* top = integral_.ptr<int>(r.y);
+    const int* bottom = integral_.ptr<int>(r.y + r.height);
+    return static_cast<double>(bottom[r.x + r.width]) - bottom[r.x] - top[r.x + r.width] + top[r.x];
+  }
+  // The mean over each of size's cells of rect (inside the image): what cv::resize with
+  // INTER_AREA gives when it shrinks in both directions.
+  void shrink(const cv::Rect& rect, cv::Size size, cv::Mat& out) const {
+    out.create(size, CV_8UC1);
+    const double sx = static_cast<double>(rect.width) / size.width;
+    const double sy = static_cast<double>(rect.height) / size.height;
+    const double norm = 1.0 / (sx * sy);
+    for (int i = 0; i < size.height; ++i) {
+      std::uint8_t* row = out.ptr<std::uint8_t>(i);
+      const double y0 = rect.y + i * sy, y1 = rect.y + (i + 1) * sy;
+      for (int j = 0; j < size.width; ++j) {
+        const double x0 = rect.x + j * sx, x1 = rect.x + (j + 1) * sx;
+        row[j] = cv::saturate_cast<std::uint8_t>(sum(x0, y0, x1, y1) * norm);
+      }
+    }
+  }
+
+ private:
+  cv::Mat integral_;
+};
+
 cv::Mat candidate_features(const cv::Mat& ir8, const std::vector<Candidate>& candidates) {
   if (ir8.type() != CV_8UC1) throw std::invalid_argument("candidate_features: needs CV_8UC1");
   cv::Mat features(static_cast<int>(candidates.size()), feature_count(), CV_32F, cv::Scalar(0));
   if (candidates.empty()) return features;
   const FieldStats f = field_stats(ir8, 99.9);
   const cv::HOGDescriptor hog = make_hog();
+  const AreaSums sums(ir8);
+  const cv::Rect image(0, 0, ir8.cols, ir8.rows);
   std::vector<float> descriptor;
   cv::Mat window;
   for (std::size_t i = 0; i < candidates.size(); ++i) {
     const Candidate& c = candidates[i];
     const cv::Rect outer = grown(c.box, kMargin);
-    const cv::Mat patch = crop_replicate(ir8, outer);
-    cv::resize(patch, window, kWindow, 0, 0,
-               patch.cols > kWindow.width ? cv::INTER_AREA : cv::INTER_LINEAR);
+    // The box with its margin on the window: inside the image and shrinking both ways, its
+    // cells' means straight from the integral image (cv::resize's INTER_AREA, without copying
+    // the patch); else the patch with replicated edges, resized.
+    double patch_sum = 0;
+    if ((outer & image) == outer && outer.width > kWindow.width && outer.height > kWindow.height) {
+      sums.shrink(outer, kWindow, window);
+      patch_sum = sums.sum(outer);
+    } else {
+      const cv::Mat patch = crop_replicate(ir8, outer);
+      cv::resize(patch, window, kWindow, 0, 0,
+                 patch.cols > kWindow.width ? cv::INTER_AREA : cv::INTER_LINEAR);
+      patch_sum = cv::sum(patch)[0];
+    }
     hog.compute(window, descriptor);
     const cv::Mat box_pixels = ir8(c.box);
     cv::Scalar mean_box, sd_box;
     cv::meanStdDev(box_pixels, mean_box, sd_box);
     double max_box = 0;
     cv::minMaxLoc(box_pixels, nullptr, &max_box);
-    const double ring_area = static_cast<double>(patch.total()) - c.box.area();
+    const double ring_area = static_cast<double>(outer.area()) - c.box.area();
     const double ring_mean =
-        ring_area > 0 ? (cv::sum(patch)[0] - cv::sum(box_pixels)[0]) / ring_area : mean_box[0];
+        ring_area > 0 ? (patch_sum - sums.sum(c.box)) / ring_area : mean_box[0];
     float* row = features.ptr<float>(static_cast<int>(i));
     row[0] = static_cast<float>(std::log(static_cast<double>(c.box.height) / c.box.width));
     row[1] = static_cast<float>(c.area_px / c.box.area());
