@@ -47,6 +47,7 @@ struct Options {
   std::uint64_t seed = 1;
   bool json = false;
   std::string dump;  // folder: the first capture of each scene drawn
+  bool share_ground = false;
   pl::GridOptions grid;
 };
 
@@ -175,6 +176,7 @@ int run_bench_obstacles(const Options& opt) {
 
   ob::ObstacleOptions obstacle_options;
   obstacle_options.dense.method = ob::parse_dense_method(opt.method);
+  obstacle_options.share_ground = opt.share_ground;
   ob::GroundPrior prior;
   prior.camera_height_m = scene.camera_height_m;  // the simulated rig is level
   std::vector<ob::PairSetup> pairs;
@@ -343,6 +345,8 @@ THERMOVIS_COMMAND(
       app.add_option("--recall-m", opt->recall_m, "recall of the targets up to this distance")
           ->capture_default_str();
       app.add_option("--seed", opt->seed, "noise seed")->capture_default_str();
+      app.add_flag("--share-ground", opt->share_ground,
+                   "a pair without a ground of its own takes the other's");
       app.add_flag("--json", opt->json, "one JSON object");
       app.add_option("--dump", opt->dump,
                      "folder: the first capture of each scene drawn (obstacles, disparity)");

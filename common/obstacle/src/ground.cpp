@@ -141,54 +141,81 @@ GroundFit fit_ground(const cv::Mat& points, const std::vector<double>& row_beta,
   const double k0 = std::hypot(w0.y(), w0.z());
   const double phi0 = std::atan2(w0.z(), w0.y());
   const int row_cap = std::max(options.min_row_pixels, points.cols / 8);
-  double best_score = -1, best_k = k0, best_phi = phi0;
-  const int pitch_steps =
-      static_cast<int>(std::round(options.max_pitch_change_rad / options.pitch_step_rad));
-  const int height_steps = std::max(1, options.height_steps);
   const double log_factor = std::log(options.max_height_factor);
+  double best_score = -1, best_k = k0, best_phi = phi0, best_offset = 0;
   std::vector<double> unit_v(static_cast<std::size_t>(points.rows));  // the row disparity / k
-  for (int ip = -pitch_steps; ip <= pitch_steps; ++ip) {
-    const double phi = phi0 + ip * options.pitch_step_rad;
-    for (int r = 0; r < points.rows; ++r) {
-      unit_v[static_cast<std::size_t>(r)] = row_disparity(f_baseline_px_m, 1.0, phi, row_beta[r]);
-    }
-    for (int ih = 0; ih <= height_steps; ++ih) {
-      const double k = k0 * std::exp(log_factor * (2.0 * ih / height_steps - 1.0));
-      double score = 0;
-      for (int r = 0; r < points.rows; ++r) {
-        const double v = k * unit_v[static_cast<std::size_t>(r)];
-        if (v < options.min_ground_v_px) continue;
-        score += std::min(votes(r, v), row_cap);
+  // Candidates phi0 + i * phi_step (|i| <= phi_count) about phi_centre, and log(k / k_centre) =
+  // j * log_step (|j| <= k_count), on every row_stride-th row.
+  auto search = [&](double phi_centre, double phi_step, int phi_count, double k_centre,
+                    double log_step, int k_count, int row_stride) {
+    for (int ip = -phi_count; ip <= phi_count; ++ip) {
+      const double phi = phi_centre + ip * phi_step;
+      if (std::abs(phi - phi0) > options.max_pitch_change_rad + 1e-12) continue;
+      for (int r = 0; r < points.rows; r += row_stride) {
+        unit_v[static_cast<std::size_t>(r)] =
+            row_disparity(f_baseline_px_m, 1.0, phi, row_beta[static_cast<std::size_t>(r)]);
       }
-      // Ties (an empty search) keep the candidate nearest the prior.
-      if (score > best_score) {
-        best_score = score;
-        best_k = k;
-        best_phi = phi;
+      for (int ih = -k_count; ih <= k_count; ++ih) {
+        const double k = k_centre * std::exp(ih * log_step);
+        if (std::abs(std::log(k / k0)) > log_factor + 1e-12) continue;
+        double score = 0;
+        for (int r = 0; r < points.rows; r += row_stride) {
+          const double v = k * unit_v[static_cast<std::size_t>(r)];
+          if (v < options.min_ground_v_px) continue;
+          score += std::min(votes(r, v), row_cap);
+        }
+        // Ties (an empty search) keep the candidate nearest the prior.
+        const double offset = std::abs(phi - phi0) / options.max_pitch_change_rad +
+                              std::abs(std::log(k / k0)) / log_factor;
+        if (score > best_score || (score == best_score && offset < best_offset)) {
+          best_score = score;
+          best_k = k;
+          best_phi = phi;
+          best_offset = offset;
+        }
       }
     }
-  }
+  };
+  // Coarse over the whole search on every other row, then fine about the best.
+  const double coarse_phi = 4 * options.pitch_step_rad;
+  const int phi_count = static_cast<int>(std::ceil(options.max_pitch_change_rad / coarse_phi));
+  const int height_steps = std::max(2, options.height_steps);
+  const double coarse_k = 4 * 2 * log_factor / height_steps;
+  const int k_count = static_cast<int>(std::ceil(log_factor / coarse_k));
+  search(phi0, coarse_phi, phi_count, k0, coarse_k, k_count, 2);
+  best_score = -1;
+  search(best_phi, options.pitch_step_rad, 4, best_k, coarse_k / 4, 4, 1);
 
   // Least squares on the pixels near the best candidate, then once more on the refined plane.
   Eigen::Vector3d w(w0.x(), best_k * std::cos(best_phi), best_k * std::sin(best_phi));
   std::vector<int> row_inliers(static_cast<std::size_t>(points.rows), 0);
   for (int pass = 0; pass < 2; ++pass) {
-    Eigen::Matrix3d A = Eigen::Matrix3d::Zero();
-    Eigen::Vector3d b = Eigen::Vector3d::Zero();
+    // The normal equations' sums, one scalar each (Eigen's 3 x 3 temporaries per pixel cost
+    // more than the rest of the fit).
+    double xx = 0, xy = 0, xz = 0, yy = 0, yz = 0, zz = 0, bx = 0, by = 0, bz = 0;
     std::fill(row_inliers.begin(), row_inliers.end(), 0);
     int inliers = 0;
     for (const GroundSample& s : samples) {
-      const double ground = w.dot(s.features.cast<double>());
-      const double v_ground = f_baseline_px_m * ground;
+      const double x = s.features.x(), y = s.features.y(), z = s.features.z();
+      const double v_ground = f_baseline_px_m * (w.x() * x + w.y() * y + w.z() * z);
       if (v_ground < options.min_ground_v_px) continue;
       const double tol = options.tolerance_px + options.tolerance_share * v_ground;
       if (std::abs(f_baseline_px_m * s.inv_rho - v_ground) >= tol) continue;
-      const Eigen::Vector3d x = s.features.cast<double>();
-      A += x * x.transpose();
-      b += x * static_cast<double>(s.inv_rho);
+      xx += x * x;
+      xy += x * y;
+      xz += x * z;
+      yy += y * y;
+      yz += y * z;
+      zz += z * z;
+      bx += x * s.inv_rho;
+      by += y * s.inv_rho;
+      bz += z * s.inv_rho;
       ++inliers;
       ++row_inliers[static_cast<std::size_t>(s.row)];
     }
+    Eigen::Matrix3d A;
+    A << xx, xy, xz, xy, yy, yz, xz, yz, zz;
+    const Eigen::Vector3d b(bx, by, bz);
     fit.inlier_pixels = inliers;
     if (inliers < 10) break;
     const Eigen::Vector3d refined = A.ldlt().solve(b);

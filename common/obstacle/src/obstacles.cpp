@@ -78,11 +78,18 @@ ObstacleDetector::ObstacleDetector(const camera::RectifiedIntrinsics& grid,
     p.prior = plane_in_frame(rig_ground, setup.geometry.T_ref_left_rect);
     p.T_reporting_rect = T_ref_reporting.inverse() * setup.geometry.T_ref_left_rect;
     // The prior's horizon (its ground's row disparity is 0 there) and the rows kept above it.
+    // The prior's horizon (its ground's row disparity is 0 there), the rows kept above it, and
+    // below, the ground up to min_distance_m ahead (nearer is outside the disparity range) and
+    // the rows a stixel's base may reach below its foot.
     const double beta_horizon = std::atan2(-p.prior.normal.z(), p.prior.normal.y());
     const double top = grid.cy + grid.f * (beta_horizon - options.above_horizon_rad);
-    const int kept =
-        (grid.height - std::clamp(static_cast<int>(std::floor(top)), 0, grid.height - 16 * k)) / k;
-    p.first_row = grid.height - kept * k;
+    const double bottom =
+        grid.cy + grid.f * (beta_horizon + std::atan2(p.prior.height_m, options.min_distance_m)) +
+        (options.foot_rows + 2) * k;
+    const int last_row = std::clamp(static_cast<int>(std::ceil(bottom)), 16 * k, grid.height);
+    const int first_row = std::clamp(static_cast<int>(std::floor(top)), 0, last_row - 16 * k);
+    const int kept = (last_row - first_row) / k;
+    p.first_row = last_row - kept * k;
     camera::RectifiedIntrinsics r = grid;
     r.width = grid.width / k;
     r.height = kept;
@@ -204,24 +211,40 @@ cv::Mat ObstacleDetector::triangulated(const Pair& p, const cv::Mat& disparity) 
 
 std::vector<Stixel> ObstacleDetector::stixels(const Pair& p, const cv::Mat& disparity,
                                               const cv::Mat& points, const GroundPlane& ground,
-                                              const GroundPlane& ground_reporting) const {
+                                              const GroundPlane& ground_reporting,
+                                              std::vector<int>& ground_pixels) const {
   const auto& r = p.reduced.grid.intrinsics();
   const double f_baseline = r.f * p.reduced.baseline_m;
   const int k = options_.reduction;
+  // Each pixel: whether it stands above the ground by more than min_height_m and 3 sigma of its
+  // height's noise (its point moves along its ray by B^2 / (f A) per px); whether it is on the
+  // ground (within min_height_m), counted per column for the free space.
+  cv::Mat stand(points.size(), CV_8U, cv::Scalar(0));
+  ground_pixels.assign(static_cast<std::size_t>(r.width), 0);
+  const Eigen::Vector3f n = ground.normal.cast<float>();
+  const auto h = static_cast<float>(ground.height_m);
+  const auto noise = static_cast<float>(3 * options_.disparity_sigma_px / f_baseline);
+  const auto min_height = static_cast<float>(options_.min_height_m);
+  for (int row = 0; row < r.height; ++row) {
+    const auto* pv = points.ptr<cv::Vec3f>(row);
+    auto* st = stand.ptr<std::uint8_t>(row);
+    for (int c = 0; c < r.width; ++c) {
+      const cv::Vec3f& P = pv[c];
+      if (!std::isfinite(P[2])) continue;
+      const float down = n.x() * P[0] + n.y() * P[1] + n.z() * P[2];
+      const float height = h - down;
+      const float B = std::sqrt(P.dot(P));
+      if (height > min_height + std::abs(down) * B * noise) {
+        st[c] = 1;
+      } else if (std::abs(height) < min_height) {
+        ++ground_pixels[static_cast<std::size_t>(c)];
+      }
+    }
+  }
   std::vector<Stixel> out;
   std::vector<std::pair<int, double>> members;  // row, disparity
   for (int c = 0; c < r.width; ++c) {
-    // Whether the pixel at `row` stands above the ground by more than min_height_m and 3 sigma
-    // of its height's noise (its point moves along its ray by B^2 / (f A) per px).
-    auto stands = [&](int row) {
-      const cv::Vec3f& pv = points.at<cv::Vec3f>(row, c);
-      if (!std::isfinite(pv[2])) return false;
-      const Eigen::Vector3d P(pv[0], pv[1], pv[2]);
-      const double B = P.norm();
-      const double ray_down = std::abs(ground.normal.dot(P)) / B;
-      const double sigma_h = ray_down * B * B / f_baseline * options_.disparity_sigma_px;
-      return ground.height_of(P) > options_.min_height_m + 3 * sigma_h;
-    };
+    auto stands = [&](int row) { return stand.at<std::uint8_t>(row, c) != 0; };
     for (int row = r.height - 1; row >= 0; --row) {
       const float d0 = disparity.at<float>(row, c);
       if (!(d0 > 0) || !stands(row)) continue;
@@ -351,7 +374,8 @@ std::vector<Obstacle> ObstacleDetector::cluster(const std::vector<Stixel>& stixe
   return out;
 }
 
-PairObstacles ObstacleDetector::from_disparity(PairBand band, const cv::Mat& disparity) const {
+PairObstacles ObstacleDetector::from_disparity(PairBand band, const cv::Mat& disparity,
+                                               const GroundPlane* rig_ground) const {
   const Pair& p = pair(band);
   const auto& r = p.reduced.grid.intrinsics();
   if (disparity.type() != CV_32FC1 || disparity.size() != cv::Size(r.width, r.height)) {
@@ -363,27 +387,29 @@ PairObstacles ObstacleDetector::from_disparity(PairBand band, const cv::Mat& dis
   out.band = band;
   out.free_space_m.assign(static_cast<std::size_t>(grid_.width), kNan);
   const cv::Mat points = triangulated(p, disparity);
-  out.ground = fit_ground(points, p.row_beta, r.f * p.reduced.baseline_m, p.prior, options_.ground);
+  if (rig_ground != nullptr) {
+    out.ground.status = GroundStatus::ok;
+    out.ground.message = "the other pair's ground";
+    out.ground.plane = plane_in_frame(*rig_ground, p.setup.geometry.T_ref_left_rect);
+    out.ground_from_other = true;
+  } else {
+    out.ground =
+        fit_ground(points, p.row_beta, r.f * p.reduced.baseline_m, p.prior, options_.ground);
+  }
   const Eigen::Isometry3d T_rect_reporting = p.T_reporting_rect.inverse();
   out.ground_reporting = plane_in_frame(out.ground.plane, T_rect_reporting);
   if (!out.ground.ok()) return out;
 
-  out.stixels = stixels(p, disparity, points, out.ground.plane, out.ground_reporting);
+  std::vector<int> ground_pixels;
+  out.stixels =
+      stixels(p, disparity, points, out.ground.plane, out.ground_reporting, ground_pixels);
   std::vector<int> kept;
   out.obstacles = cluster(out.stixels, band, out.ground_reporting, &kept);
   // Free space per reduced column: its kept stixel's distance; the farthest range where the
   // column holds the ground and no obstacle; unknown (NaN) where it holds neither.
   std::vector<float> reduced(static_cast<std::size_t>(r.width), kNan);
   for (int c = 0; c < r.width; ++c) {
-    int ground_pixels = 0;
-    for (int row = 0; row < r.height; ++row) {
-      const cv::Vec3f& pv = points.at<cv::Vec3f>(row, c);
-      if (std::isfinite(pv[2]) && std::abs(out.ground.plane.height_of(Eigen::Vector3d(
-                                      pv[0], pv[1], pv[2]))) < options_.min_height_m) {
-        ++ground_pixels;
-      }
-    }
-    if (ground_pixels >= options_.min_stixel_rows) {
+    if (ground_pixels[static_cast<std::size_t>(c)] >= options_.min_stixel_rows) {
       reduced[static_cast<std::size_t>(c)] = static_cast<float>(options_.max_distance_m);
     }
   }
@@ -398,23 +424,48 @@ PairObstacles ObstacleDetector::from_disparity(PairBand band, const cv::Mat& dis
   return out;
 }
 
-PairObstacles ObstacleDetector::detect_pair(PairBand band, const cv::Mat& left,
-                                            const cv::Mat& right) const {
+cv::Mat ObstacleDetector::disparity(PairBand band, const cv::Mat& left,
+                                    const cv::Mat& right) const {
   cv::Mat left8, right8;
   reduce_pair(band, left, right, left8, right8);
-  return from_disparity(band, dense_disparity(left8, right8, max_disparity_px_, options_.dense));
+  return dense_disparity(left8, right8, max_disparity_px_, options_.dense);
+}
+
+PairObstacles ObstacleDetector::detect_pair(PairBand band, const cv::Mat& left,
+                                            const cv::Mat& right) const {
+  return from_disparity(band, disparity(band, left, right));
 }
 
 ObstacleResult ObstacleDetector::detect(const cv::Mat& visible_left, const cv::Mat& visible_right,
                                         const cv::Mat& infrared_left,
                                         const cv::Mat& infrared_right) const {
-  std::vector<PairObstacles> found;
+  std::vector<std::pair<PairBand, cv::Mat>> disparities;
   for (const Pair& p : pairs_) {
     const bool visible = p.setup.band == PairBand::visible;
     const cv::Mat& l = visible ? visible_left : infrared_left;
     const cv::Mat& r = visible ? visible_right : infrared_right;
     if (l.empty() && r.empty()) continue;
-    found.push_back(detect_pair(p.setup.band, l, r));
+    disparities.emplace_back(p.setup.band, disparity(p.setup.band, l, r));
+  }
+  return from_disparities(disparities);
+}
+
+ObstacleResult ObstacleDetector::from_disparities(
+    const std::vector<std::pair<PairBand, cv::Mat>>& disparities) const {
+  std::vector<PairObstacles> found;
+  for (const auto& [band, d] : disparities) found.push_back(from_disparity(band, d));
+  // A pair without a ground of its own on the other's (in the rig frame).
+  for (std::size_t i = 0; i < found.size() && options_.share_ground; ++i) {
+    if (found[i].ok()) continue;
+    for (std::size_t j = 0; j < found.size(); ++j) {
+      if (j == i || !found[j].ok() || found[j].ground_from_other) continue;
+      const GroundPlane rig_ground = plane_in_frame(
+          found[j].ground.plane, pair(found[j].band).setup.geometry.T_ref_left_rect.inverse());
+      const GroundFit own = found[i].ground;
+      found[i] = from_disparity(found[i].band, disparities[i].second, &rig_ground);
+      found[i].ground.message += " (its own: " + status_name(own.status) + ", " + own.message + ")";
+      break;
+    }
   }
   return combine(std::move(found));
 }

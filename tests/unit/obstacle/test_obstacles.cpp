@@ -164,6 +164,32 @@ TEST(ObstacleDetector, BothPairsSeeingOneObstacleGiveOne) {
   EXPECT_LT(r.obstacles[0].sigma_m, visible.obstacles[0].sigma_m);
 }
 
+TEST(ObstacleDetector, APairWithoutGroundTakesTheOthersWhenAskedTo) {
+  // Two pairs on one grid; the infrared sees only the box (no texture on its road).
+  const cam::RectifiedIntrinsics g = synthetic_grid();
+  const rg::RangingGeometry pair{cam::RectifiedCamera(g), kBaseline, Eigen::Isometry3d::Identity()};
+  for (const bool share : {false, true}) {
+    ob::ObstacleOptions options;
+    options.share_ground = share;
+    const ob::ObstacleDetector d(g, {{ob::PairBand::visible, pair}, {ob::PairBand::infrared, pair}},
+                                 Eigen::Isometry3d::Identity(), ob::GroundPrior{kHeight, 0.0, 0.0},
+                                 options);
+    const Face box{9.0, -0.5, 0.5, 1.2};
+    const cv::Mat visible = synthetic_disparity(d, {box});
+    cv::Mat infrared = synthetic_disparity(d, {box});
+    infrared.setTo(NAN, synthetic_disparity(d, {}) == infrared);  // only the box
+    const ob::ObstacleResult r =
+        d.from_disparities({{ob::PairBand::visible, visible}, {ob::PairBand::infrared, infrared}});
+    ASSERT_EQ(r.pairs.size(), 2u);
+    EXPECT_TRUE(r.pairs[0].ok());
+    EXPECT_EQ(r.pairs[1].ok(), share) << r.pairs[1].ground.message;
+    EXPECT_EQ(r.pairs[1].ground_from_other, share);
+    ASSERT_EQ(r.obstacles.size(), 1u);
+    EXPECT_EQ(r.obstacles[0].bands, share ? ob::kVisibleBit | ob::kInfraredBit : ob::kVisibleBit);
+    EXPECT_NEAR(r.obstacles[0].distance_m, 9.0, 0.2);
+  }
+}
+
 TEST(ObstacleDetector, BadInputIsNamed) {
   const ob::ObstacleDetector d = synthetic_detector();
   EXPECT_THROW(d.from_disparity(ob::PairBand::visible, cv::Mat(10, 10, CV_32F)),

@@ -3,7 +3,8 @@
 // the stixel world (Badino, Franke, Pfeiffer 2009) on the wide rectified grid.
 //
 // Per pair (visible, infrared), on a reduced grid (the pipeline grid's rows from a little above
-// the prior's horizon down, averaged over reduction x reduction px):
+// the prior's horizon down to the ground min_distance_m ahead, averaged over reduction x
+// reduction px):
 //  1. dense disparity (dense_disparity.hpp), every pixel triangulated exactly on the grid
 //     (range::triangulate's geometry, the right eye wherever it is);
 //  2. the ground from the v-disparity about the prior (ground.hpp);
@@ -51,7 +52,7 @@ struct PairSetup {
 struct ObstacleOptions {
   int reduction = 2;                // grid px per reduced px, each way (an integer: >= 1)
   double above_horizon_rad = 0.12;  // rows kept above the prior's horizon (obstacles' tops)
-  double min_distance_m = 2.5;      // the nearest obstacle searched (sets the disparity range)
+  double min_distance_m = 2.5;      // the nearest obstacle searched (disparity range, bottom row)
   double max_distance_m = 60.0;     // stixels farther are dropped; free space where none
   DenseOptions dense;
   GroundOptions ground;
@@ -70,6 +71,11 @@ struct ObstacleOptions {
   double cluster_tolerance_m = 0.5;       // neighbouring stixels in one obstacle: this far apart
   double cluster_tolerance_share = 0.08;  // + this share of their distance
   int max_cluster_gap_columns = 2;        // reduced columns without a stixel inside an obstacle
+  // A pair that finds no ground of its own takes the other pair's (detect()). Off: on the
+  // simulated street the infrared pair's road is its cameras' fixed pattern, and its stixels
+  // on the visible pair's ground gave 12 false obstacles per empty-road frame against the
+  // visible pair's 2 (`thermovis bench obstacles --share-ground`).
+  bool share_ground = false;
 };
 
 // The first obstacle of one reduced column.
@@ -97,9 +103,10 @@ struct Obstacle {
 
 struct PairObstacles {
   PairBand band = PairBand::visible;
-  GroundFit ground;              // the pair's left rectified frame
-  GroundPlane ground_reporting;  // the same plane in the reporting frame
-  std::vector<Stixel> stixels;   // every column's (also those no obstacle keeps)
+  GroundFit ground;                // the pair's left rectified frame
+  bool ground_from_other = false;  // the other pair's ground (the pair found none of its own)
+  GroundPlane ground_reporting;    // the same plane in the reporting frame
+  std::vector<Stixel> stixels;     // every column's (also those no obstacle keeps)
   std::vector<Obstacle> obstacles;
   // Per pipeline grid column: distance to the first obstacle, m; max_distance_m where there is
   // none; NaN everywhere when the ground was not found.
@@ -135,15 +142,23 @@ class ObstacleDetector {
   // Throws std::invalid_argument for a band not set up or images of another size or type.
   PairObstacles detect_pair(PairBand band, const cv::Mat& left, const cv::Mat& right) const;
   // The same from a disparity already on the pair's reduced grid (CV_32FC1, reduced px, NaN
-  // where none): what detect_pair does after matching.
-  PairObstacles from_disparity(PairBand band, const cv::Mat& disparity) const;
+  // where none): what detect_pair does after matching. With `rig_ground` (the rig frame) that
+  // plane is the ground instead of the pair's own fit (GroundFit::message says so).
+  PairObstacles from_disparity(PairBand band, const cv::Mat& disparity,
+                               const GroundPlane* rig_ground = nullptr) const;
+  // The pair's dense disparity on its reduced grid.
+  cv::Mat disparity(PairBand band, const cv::Mat& left, const cv::Mat& right) const;
   // The reduced pair as the matcher reads it (grey, cropped and averaged).
   void reduce_pair(PairBand band, const cv::Mat& left, const cv::Mat& right, cv::Mat& left8,
                    cv::Mat& right8) const;
 
-  // The pairs present (empty images: that pair skipped), combined.
+  // The pairs present (empty images: that pair skipped), combined. With share_ground, a pair
+  // that finds no ground of its own takes the other's where that one found it.
   ObstacleResult detect(const cv::Mat& visible_left, const cv::Mat& visible_right,
                         const cv::Mat& infrared_left, const cv::Mat& infrared_right) const;
+  // The same from each pair's disparity on its reduced grid.
+  ObstacleResult from_disparities(
+      const std::vector<std::pair<PairBand, cv::Mat>>& disparities) const;
   ObstacleResult combine(std::vector<PairObstacles> pairs) const;
 
  private:
@@ -158,8 +173,10 @@ class ObstacleDetector {
   };
   const Pair& pair(PairBand band) const;
   cv::Mat triangulated(const Pair& p, const cv::Mat& disparity) const;
+  // The columns' stixels; ground_pixels: per reduced column, its pixels on the ground.
   std::vector<Stixel> stixels(const Pair& p, const cv::Mat& disparity, const cv::Mat& points,
-                              const GroundPlane& ground, const GroundPlane& ground_reporting) const;
+                              const GroundPlane& ground, const GroundPlane& ground_reporting,
+                              std::vector<int>& ground_pixels) const;
   std::vector<Obstacle> cluster(const std::vector<Stixel>& stixels, PairBand band,
                                 const GroundPlane& ground_reporting,
                                 std::vector<int>* kept_columns) const;
