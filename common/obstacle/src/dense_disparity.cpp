@@ -128,4 +128,41 @@ void grey_pair(const cv::Mat& left, const cv::Mat& right, cv::Mat& left8, cv::Ma
   }
 }
 
+DenseAccuracy evaluate_dense(const cv::Mat& disparity, const cv::Mat& ground_truth) {
+  if (disparity.type() != CV_32FC1 || ground_truth.type() != CV_32FC1 ||
+      disparity.size() != ground_truth.size()) {
+    throw std::invalid_argument(
+        "evaluate_dense: the disparity and the truth are not CV_32FC1 of one size");
+  }
+  DenseAccuracy a;
+  int valid = 0, bad1 = 0, bad2 = 0, bad1_valid = 0, bad2_valid = 0;
+  for (int r = 0; r < disparity.rows; ++r) {
+    const auto* d = disparity.ptr<float>(r);
+    const auto* t = ground_truth.ptr<float>(r);
+    for (int c = 0; c < disparity.cols; ++c) {
+      if (!std::isfinite(t[c]) || !(t[c] > 0)) continue;
+      ++a.truth_pixels;
+      if (!std::isfinite(d[c])) {
+        ++bad1;
+        ++bad2;
+        continue;
+      }
+      ++valid;
+      const float e = std::abs(d[c] - t[c]);
+      bad1 += e > 1.0f;
+      bad2 += e > 2.0f;
+      bad1_valid += e > 1.0f;
+      bad2_valid += e > 2.0f;
+    }
+  }
+  if (a.truth_pixels == 0) return a;
+  const double n = a.truth_pixels;
+  a.valid = valid / n;
+  a.bad1 = bad1 / n;
+  a.bad2 = bad2 / n;
+  a.bad1_valid = valid ? static_cast<double>(bad1_valid) / valid : 0.0;
+  a.bad2_valid = valid ? static_cast<double>(bad2_valid) / valid : 0.0;
+  return a;
+}
+
 }  // namespace thermovis::obstacle

@@ -272,3 +272,18 @@ TEST(ObstacleDetectorOnSimulatedStreet, FindsTheGroundThePersonAndThePole) {
     EXPECT_NEAR(found->distance_m, nearest, 0.06 * nearest) << t.id;
   }
 }
+
+TEST(DenseDisparity, BadPixelsAgainstATruth) {
+  // Four pixels with a truth: one exact, one 1.5 px off, one 3 px off, one without a disparity;
+  // a fifth without a truth is not counted.
+  const cv::Mat truth = (cv::Mat_<float>(1, 5) << 10, 10, 10, 10, INFINITY);
+  const cv::Mat d = (cv::Mat_<float>(1, 5) << 10, 11.5, 13, NAN, 3);
+  const ob::DenseAccuracy a = ob::evaluate_dense(d, truth);
+  EXPECT_EQ(a.truth_pixels, 4);
+  EXPECT_DOUBLE_EQ(a.valid, 0.75);
+  EXPECT_DOUBLE_EQ(a.bad1, 0.75);
+  EXPECT_DOUBLE_EQ(a.bad2, 0.5);
+  EXPECT_DOUBLE_EQ(a.bad1_valid, 2.0 / 3.0);
+  EXPECT_DOUBLE_EQ(a.bad2_valid, 1.0 / 3.0);
+  EXPECT_THROW(ob::evaluate_dense(d, truth(cv::Rect(0, 0, 4, 1))), std::invalid_argument);
+}

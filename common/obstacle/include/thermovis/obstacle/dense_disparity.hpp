@@ -37,4 +37,15 @@ cv::Mat dense_disparity(const cv::Mat& left, const cv::Mat& right, double max_di
 // std::invalid_argument for another type or eyes of different sizes or types.
 void grey_pair(const cv::Mat& left, const cv::Mat& right, cv::Mat& left8, cv::Mat& right8);
 
+// A dense disparity against a ground truth (CV_32FC1 of the same size, px; non-finite or <= 0
+// where unknown), Middlebury's way: bad-1 and bad-2 are the shares of the pixels with a truth
+// whose disparity is off by more than 1 and 2 px, a pixel without a disparity counted bad;
+// `valid` is the share of those pixels with a disparity, and the _valid figures are over them
+// alone. Throws std::invalid_argument for another type or size.
+struct DenseAccuracy {
+  int truth_pixels = 0;
+  double valid = 0, bad1 = 0, bad2 = 0, bad1_valid = 0, bad2_valid = 0;  // shares, 0..1
+};
+DenseAccuracy evaluate_dense(const cv::Mat& disparity, const cv::Mat& ground_truth);
+
 }  // namespace thermovis::obstacle
