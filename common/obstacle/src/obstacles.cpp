@@ -345,7 +345,6 @@ std::vector<Obstacle> ObstacleDetector::cluster(const std::vector<Stixel>& stixe
       y1 = std::max(y1, s.base_row);
       o.position_m += s.middle_m;
       o.extent_m.y() = std::max(o.extent_m.y(), s.height_m);
-      if (kept_columns != nullptr) kept_columns->push_back(static_cast<int>(i));
     }
     o.position_m /= static_cast<double>(o.stixels);
     const Eigen::Vector3d& n = ground_reporting.normal;
@@ -355,6 +354,10 @@ std::vector<Obstacle> ObstacleDetector::cluster(const std::vector<Stixel>& stixe
     o.distance_m = nearest->distance_m;
     o.sigma_m = nearest->sigma_m;
     o.box = cv::Rect(cv::Point(x0, y0), cv::Point(x1 + 1, y1 + 1));
+    if (o.sigma_m > options_.max_sigma_share * o.distance_m) return;
+    for (std::size_t i = begin; i < end && kept_columns != nullptr; ++i) {
+      kept_columns->push_back(static_cast<int>(i));
+    }
     out.push_back(o);
   };
   for (std::size_t i = 1; i <= stixels.size(); ++i) {

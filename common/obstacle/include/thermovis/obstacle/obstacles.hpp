@@ -67,14 +67,16 @@ struct ObstacleOptions {
   // A stixel's base at its disparity lies on the ground within min_obstacle_height_m, 3 sigma
   // and one reduced row above it, or this many rows (the block's smear) below it.
   double foot_rows = 4;
-  int min_obstacle_columns = 2;           // stixels in an obstacle
-  double cluster_tolerance_m = 0.5;       // neighbouring stixels in one obstacle: this far apart
+  int min_obstacle_columns = 2;      // stixels in an obstacle
+  double max_sigma_share = 0.08;     // an obstacle's sigma over its distance at most (else too far)
+  double cluster_tolerance_m = 0.5;  // neighbouring stixels in one obstacle: this far apart
   double cluster_tolerance_share = 0.08;  // + this share of their distance
   int max_cluster_gap_columns = 2;        // reduced columns without a stixel inside an obstacle
   // A pair that finds no ground of its own takes the other pair's (detect()). Off: on the
   // simulated street the infrared pair's road is its cameras' fixed pattern, and its stixels
-  // on the visible pair's ground gave 12 false obstacles per empty-road frame against the
-  // visible pair's 2 (`thermovis bench obstacles --share-ground`).
+  // on the visible pair's ground gave 9.7 false obstacles per empty-road frame against the
+  // visible pair's 0.54, for 96.2 % recall against 93.8 % (`thermovis bench obstacles
+  // --share-ground`).
   bool share_ground = false;
 };
 
