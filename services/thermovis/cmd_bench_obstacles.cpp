@@ -56,7 +56,7 @@ constexpr double kBins[] = {10, 20, 30, 40, 60, 1e9};
 
 struct Bin {
   int truths = 0, found = 0;
-  std::vector<double> abs_errors, rel_errors;
+  std::vector<double> errors, abs_errors, rel_errors;  // m, m, share
 };
 
 // A target's truth: its silhouette's box on the grid and the horizontal distance of its nearest
@@ -242,6 +242,7 @@ int run_bench_obstacles(const Options& opt) {
       // Found: at its distance within 15 % (+ 0.5 m); farther off it is another object's.
       if (std::abs(error) > 0.5 + 0.15 * t.distance_m) continue;
       ++bin.found;
+      bin.errors.push_back(error);
       bin.abs_errors.push_back(std::abs(error));
       bin.rel_errors.push_back(std::abs(error) / t.distance_m);
     }
@@ -277,6 +278,7 @@ int run_bench_obstacles(const Options& opt) {
       per.push_back({{"distance_m", bin_name(i)},
                      {"truths", b.truths},
                      {"found", b.found},
+                     {"median_error_m", b.found ? percentile(b.errors, 50) : 0.0},
                      {"median_abs_error_m", b.found ? percentile(b.abs_errors, 50) : 0.0},
                      {"median_rel_error_pct", b.found ? 100 * percentile(b.rel_errors, 50) : 0.0}});
     }
@@ -304,7 +306,8 @@ int run_bench_obstacles(const Options& opt) {
             << " frames apart\n"
             << std::fixed << std::setprecision(1);
   std::cout << std::setw(10) << "distance" << std::setw(8) << "truths" << std::setw(8) << "found"
-            << std::setw(16) << "median |error|" << std::setw(10) << "of dist.\n";
+            << std::setw(16) << "median |error|" << std::setw(10) << "of dist." << std::setw(16)
+            << "median error\n";
   for (std::size_t i = 0; i < bins.size(); ++i) {
     const Bin& b = bins[i];
     if (b.truths == 0) continue;
@@ -312,10 +315,11 @@ int run_bench_obstacles(const Options& opt) {
               << std::setw(14) << std::setprecision(2)
               << (b.found ? percentile(b.abs_errors, 50) : 0.0) << " m" << std::setw(8)
               << std::setprecision(1) << (b.found ? 100 * percentile(b.rel_errors, 50) : 0.0)
-              << " %\n";
+              << " %" << std::setw(12) << std::showpos << std::setprecision(2)
+              << (b.found ? percentile(b.errors, 50) : 0.0) << std::noshowpos << " m\n";
   }
-  std::cout << "recall up to " << opt.recall_m << " m: " << found_in_reach << " of "
-            << truths_in_reach << " (" << recall << " %)\n"
+  std::cout << std::setprecision(1) << "recall up to " << opt.recall_m << " m: " << found_in_reach
+            << " of " << truths_in_reach << " (" << recall << " %)\n"
             << "obstacles " << obstacles_total << ", of which on a target " << obstacles_on_target
             << " (the others: walls, hedge, buildings); pairs without ground " << no_ground << "\n"
             << "false obstacles on the empty road: " << false_obstacles << " in "

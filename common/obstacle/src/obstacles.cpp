@@ -351,10 +351,20 @@ std::vector<Obstacle> ObstacleDetector::cluster(const std::vector<Stixel>& stixe
     const Eigen::Vector3d across = stixels[end - 1].middle_m - stixels[begin].middle_m;
     o.extent_m.x() = (across - n.dot(across) * n).norm();
     o.extent_m.z() = far - nearest->distance_m;
-    o.distance_m = nearest->distance_m;
-    o.sigma_m = nearest->sigma_m;
+    // The near face: the stixels within 2 sigma of the nearest one, at their median (the
+    // nearest alone is biased near by its noise: the least of several noisy distances).
+    std::vector<double> near_face, near_sigma;
+    for (std::size_t i = begin; i < end; ++i) {
+      if (stixels[i].distance_m <= nearest->distance_m + 2 * nearest->sigma_m) {
+        near_face.push_back(stixels[i].distance_m);
+        near_sigma.push_back(stixels[i].sigma_m);
+      }
+    }
+    o.distance_m = median_of(near_face);
+    o.sigma_m = median_of(near_sigma) / std::sqrt(static_cast<double>(near_face.size()));
     o.box = cv::Rect(cv::Point(x0, y0), cv::Point(x1 + 1, y1 + 1));
-    if (o.sigma_m > options_.max_sigma_share * o.distance_m) return;
+    // Too far to range: one stixel's sigma over max_sigma_share of the distance.
+    if (nearest->sigma_m > options_.max_sigma_share * o.distance_m) return;
     for (std::size_t i = begin; i < end && kept_columns != nullptr; ++i) {
       kept_columns->push_back(static_cast<int>(i));
     }
