@@ -21,7 +21,8 @@ double horizontal_distance(const Eigen::Vector3d& p, const Eigen::Vector3d& n) {
   return (p - n.dot(p) * n).norm();
 }
 
-double median_of(std::vector<double> v) {
+// The median (the upper one of an even count); reorders v.
+double median_of(std::vector<double>& v) {
   if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
   const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
   std::nth_element(v.begin(), mid, v.end());
@@ -243,6 +244,7 @@ std::vector<Stixel> ObstacleDetector::stixels(const Pair& p, const cv::Mat& disp
   }
   std::vector<Stixel> out;
   std::vector<std::pair<int, double>> members;  // row, disparity
+  std::vector<double> ds, deviations;
   for (int c = 0; c < r.width; ++c) {
     auto stands = [&](int row) { return stand.at<std::uint8_t>(row, c) != 0; };
     for (int row = r.height - 1; row >= 0; --row) {
@@ -266,10 +268,10 @@ std::vector<Stixel> ObstacleDetector::stixels(const Pair& p, const cv::Mat& disp
         }
       }
       if (static_cast<int>(members.size()) < options_.min_stixel_rows) continue;
-      std::vector<double> ds;
+      ds.clear();
       for (const auto& m : members) ds.push_back(m.second);
       const double d_med = median_of(ds);
-      std::vector<double> deviations;
+      deviations.clear();
       for (double d : ds) deviations.push_back(std::abs(d - d_med));
       const double spread = std::max(1.4826 * median_of(deviations), options_.disparity_sigma_px);
       Eigen::Vector3d top_p, mid_p, near_p, far_p, base_p;
