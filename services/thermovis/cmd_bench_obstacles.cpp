@@ -97,6 +97,13 @@ std::vector<Truth> truths_of(const sim::SimulatedRig& simulated, const pl::Pipel
   return out;
 }
 
+// One target over the captures where it was in view.
+struct PerTarget {
+  int seen = 0, found = 0;
+  double truth_sum_m = 0;
+  std::vector<double> errors;  // m, where found
+};
+
 std::size_t bin_of(double distance_m) {
   std::size_t i = 0;
   while (distance_m > kBins[i]) ++i;
@@ -193,6 +200,7 @@ int run_bench_obstacles(const Options& opt) {
 
   std::vector<double> cpu_ms;
   std::vector<Bin> bins(std::size(kBins));
+  std::map<std::string, PerTarget> per_target;
   int obstacles_total = 0, obstacles_on_target = 0, no_ground = 0, captures = 0;
   auto run = [&](const sim::SimulatedRig& simulated, std::int64_t frame) {
     sim::FrameSet frames = simulated.allocate();
@@ -236,12 +244,17 @@ int run_bench_obstacles(const Options& opt) {
         }
       }
       Bin& bin = bins[bin_of(t.distance_m)];
+      PerTarget& target = per_target[t.id];
       ++bin.truths;
+      ++target.seen;
+      target.truth_sum_m += t.distance_m;
       if (best == nullptr) continue;
       const double error = best->distance_m - t.distance_m;
       // Found: at its distance within 15 % (+ 0.5 m); farther off it is another object's.
       if (std::abs(error) > 0.5 + 0.15 * t.distance_m) continue;
       ++bin.found;
+      ++target.found;
+      target.errors.push_back(error);
       bin.errors.push_back(error);
       bin.abs_errors.push_back(std::abs(error));
       bin.rel_errors.push_back(std::abs(error) / t.distance_m);
@@ -318,7 +331,18 @@ int run_bench_obstacles(const Options& opt) {
               << " %" << std::setw(12) << std::showpos << std::setprecision(2)
               << (b.found ? percentile(b.errors, 50) : 0.0) << std::noshowpos << " m\n";
   }
-  std::cout << std::setprecision(1) << "recall up to " << opt.recall_m << " m: " << found_in_reach
+  std::cout << "per target (in view, found, median error):";
+  for (const auto& [id, t] : per_target) {
+    std::cout << "\n  " << std::left << std::setw(14) << id << std::right << std::setw(7)
+              << std::setprecision(1) << t.truth_sum_m / t.seen << " m" << std::setw(5) << t.seen
+              << std::setw(5) << t.found;
+    if (t.found > 0) {
+      std::cout << std::setw(10) << std::showpos << std::setprecision(2) << percentile(t.errors, 50)
+                << std::noshowpos << " m";
+    }
+  }
+  std::cout << "\n"
+            << std::setprecision(1) << "recall up to " << opt.recall_m << " m: " << found_in_reach
             << " of " << truths_in_reach << " (" << recall << " %)\n"
             << "obstacles " << obstacles_total << ", of which on a target " << obstacles_on_target
             << " (the others: walls, hedge, buildings); pairs without ground " << no_ground << "\n"
