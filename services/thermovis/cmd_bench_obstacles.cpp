@@ -48,6 +48,7 @@ struct Options {
   bool json = false;
   std::string dump;  // folder: the first capture of each scene drawn
   bool share_ground = false;
+  bool no_fixed_pattern = false;  // the infrared cameras without their per-pixel offsets
   pl::GridOptions grid;
 };
 
@@ -221,7 +222,8 @@ int run_bench_obstacles(const Options& opt) {
     return r;
   };
 
-  const sim::SimulatedRig simulated(rig, scene, opt.seed);
+  const sim::RenderOptions render{true, !opt.no_fixed_pattern};
+  const sim::SimulatedRig simulated(rig, scene, opt.seed, render);
   for (int i = 0; i < opt.frames; ++i) {
     const std::int64_t frame = static_cast<std::int64_t>(i) * opt.frame_step;
     const ob::ObstacleResult r = run(simulated, frame);
@@ -268,7 +270,7 @@ int run_bench_obstacles(const Options& opt) {
   empty.walls.clear();
   int false_obstacles = 0;
   if (opt.empty_frames > 0) {
-    const sim::SimulatedRig road(rig, empty, opt.seed + 1);
+    const sim::SimulatedRig road(rig, empty, opt.seed + 1, render);
     for (int i = 0; i < opt.empty_frames; ++i) {
       false_obstacles += static_cast<int>(run(road, i).obstacles.size());
     }
@@ -373,6 +375,8 @@ THERMOVIS_COMMAND(
       app.add_option("--recall-m", opt->recall_m, "recall of the targets up to this distance")
           ->capture_default_str();
       app.add_option("--seed", opt->seed, "noise seed")->capture_default_str();
+      app.add_flag("--no-fixed-pattern", opt->no_fixed_pattern,
+                   "render the infrared cameras without fixed-pattern noise (a corrected camera)");
       app.add_flag("--share-ground", opt->share_ground,
                    "a pair without a ground of its own takes the other's");
       app.add_flag("--json", opt->json, "one JSON object");
