@@ -78,7 +78,6 @@ ObstacleDetector::ObstacleDetector(const camera::RectifiedIntrinsics& grid,
     Pair p(setup);
     p.prior = plane_in_frame(rig_ground, setup.geometry.T_ref_left_rect);
     p.T_reporting_rect = T_ref_reporting.inverse() * setup.geometry.T_ref_left_rect;
-    // The prior's horizon (its ground's row disparity is 0 there) and the rows kept above it.
     // The prior's horizon (its ground's row disparity is 0 there), the rows kept above it, and
     // below, the ground up to min_distance_m ahead (nearer is outside the disparity range) and
     // the rows a stixel's base may reach below its foot.

@@ -9,14 +9,16 @@
 //     (range::triangulate's geometry, the right eye wherever it is);
 //  2. the ground from the v-disparity about the prior (ground.hpp);
 //  3. per column, from the bottom up, the first run of pixels that stand above the ground (more
-//     than min_height_m and 3 sigma of the height's noise) at one disparity: that column's
-//     stixel, its base the obstacle's foot, its top where the disparity leaves the run; its
-//     distance the horizontal distance (along the ground) of the run's median disparity;
+//     than min_height_m and 3 sigma of the height's noise) at one disparity, whose base lies on
+//     the ground and whose top is min_obstacle_height_m above it: that column's stixel, its top
+//     where the disparity leaves the run; its distance the horizontal distance (along the
+//     ground) of the run's median disparity;
 //  4. neighbouring stixels at about one distance are one obstacle, at its near face's distance;
 //     the free space of a column is the distance to its stixel.
 // Both pairs' obstacles are combined where their boxes overlap at one distance (inverse
-// variance), so each pair alone serves (the infrared at night, the visible by day) and both
-// together give one list. A pair whose ground is not found gives its status and no obstacle.
+// variance): either pair may be given alone, and both together give one list. A pair whose
+// ground is not found gives its status and no obstacle (on the simulated road the infrared
+// pair's: docs/obstacles.md).
 //
 // Frames and units: boxes and columns are px of the pipeline grid's left image (x = column,
 // y = row, pixel centres at integers); positions in the reporting camera's frame (the left
