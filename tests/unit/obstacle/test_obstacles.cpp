@@ -47,9 +47,12 @@ struct Face {
 // The exact disparity (1/16 px steps, as the matchers give) of the reduced grid's pixels on the
 // ground y = kHeight (to 80 m) and the faces; NaN where the ray meets nothing (sky). `wall_m`
 // > 0: a wall across the whole view at that distance instead.
+// `right_centre` non-zero: the right eye there (left rectified frame), off the grid's axis, as
+// the pipeline's infrared pair is; its column is that of the angle out of the y-z plane from it.
 cv::Mat synthetic_disparity(const ob::ObstacleDetector& d, const std::vector<Face>& faces,
-                            double wall_m = 0) {
-  const cam::RectifiedCamera grid(d.reduced_grid(ob::PairBand::visible));
+                            double wall_m = 0, ob::PairBand band = ob::PairBand::visible,
+                            const Eigen::Vector3d& right_centre = Eigen::Vector3d::Zero()) {
+  const cam::RectifiedCamera grid(d.reduced_grid(band));
   const auto& r = grid.intrinsics();
   cv::Mat out(r.height, r.width, CV_32F, cv::Scalar(NAN));
   for (int y = 0; y < r.height; ++y)
@@ -72,7 +75,12 @@ cv::Mat synthetic_disparity(const ob::ObstacleDetector& d, const std::vector<Fac
       if (!std::isfinite(t)) continue;
       Eigen::Vector2d px;
       double disparity = 0;
-      if (!rg::project_point(grid, kBaseline, t * u, px, disparity)) continue;
+      if (right_centre.isZero()) {
+        if (!rg::project_point(grid, kBaseline, t * u, px, disparity)) continue;
+      } else {
+        const Eigen::Vector3d from_right = t * u - right_centre;
+        disparity = x - grid.column_of_alpha(std::asin(from_right.x() / from_right.norm()));
+      }
       out.at<float>(y, x) = static_cast<float>(std::round(disparity * 16) / 16);
     }
   return out;
@@ -119,6 +127,26 @@ TEST(ObstacleDetector, ABoxOnTheRoadIsFoundAtItsDistance) {
       box.box.contains(cv::Point(static_cast<int>(centre.x()), static_cast<int>(centre.y()))))
       << "box " << box.box << ", face centre " << centre.transpose();
   EXPECT_NEAR(r.free_space_m[static_cast<std::size_t>(centre.x())], box.distance_m, 0.3);
+}
+
+TEST(ObstacleDetector, ARightEyeOffTheGridsAxisIsTriangulatedWhereItIs) {
+  // The pipeline's infrared pair: its right eye 0.35 m along the grid's x axis and 67 mm off
+  // it. A box 37-39 deg to the right, where taking the eye as on the axis would move it by
+  // several per cent.
+  const cam::RectifiedIntrinsics g = synthetic_grid();
+  const Eigen::Vector3d right(0.35, 0.06, 0.03);
+  rg::RangingGeometry pair{cam::RectifiedCamera(g), right.x(), Eigen::Isometry3d::Identity()};
+  pair.right_centre_m = right;
+  const ob::ObstacleDetector d(g, {{ob::PairBand::infrared, pair}}, Eigen::Isometry3d::Identity(),
+                               ob::GroundPrior{kHeight, 0.0, 0.0});
+  const ob::PairObstacles r = d.from_disparity(
+      ob::PairBand::infrared,
+      synthetic_disparity(d, {{8.0, 5.5, 6.5, 1.0}}, 0, ob::PairBand::infrared, right));
+  ASSERT_TRUE(r.ok()) << r.ground.message;
+  EXPECT_NEAR(r.ground.plane.height_m, kHeight, 0.02);
+  ASSERT_EQ(r.obstacles.size(), 1u);
+  EXPECT_NEAR(r.obstacles[0].distance_m, std::hypot(8.0, 5.5), 0.02 * std::hypot(8.0, 5.5));
+  EXPECT_EQ(r.obstacles[0].bands, ob::kInfraredBit);
 }
 
 TEST(ObstacleDetector, ALowKerbIsNotAnObstacle) {
