@@ -85,11 +85,10 @@ GroundFit fit_ground(const cv::Mat& points, const std::vector<double>& row_beta,
 
   std::vector<GroundSample> samples;
   samples.reserve(points.total() / 2);
-  // Every kColumnStep-th column: the ground spans hundreds of them.
-  constexpr int kColumnStep = 4;
+  const int column_step = std::max(1, options.column_step);
   for (int r = 0; r < points.rows; ++r) {
     const auto* row = points.ptr<cv::Vec3f>(r);
-    for (int c = 0; c < points.cols; c += kColumnStep) {
+    for (int c = 0; c < points.cols; c += column_step) {
       const cv::Vec3f& p = row[c];
       if (!std::isfinite(p[2])) continue;
       const float rho = std::sqrt(p[1] * p[1] + p[2] * p[2]);
@@ -98,7 +97,7 @@ GroundFit fit_ground(const cv::Mat& points, const std::vector<double>& row_beta,
     }
   }
   fit.valid_pixels = static_cast<int>(samples.size());
-  const double total = static_cast<double>(points.total()) / kColumnStep;
+  const double total = static_cast<double>(points.total()) / column_step;
   if (samples.empty() || fit.valid_pixels < options.min_valid_share * total) {
     fit.status = GroundStatus::no_disparity;
     std::ostringstream why;
@@ -141,7 +140,7 @@ GroundFit fit_ground(const cv::Mat& points, const std::vector<double>& row_beta,
   // spread over many), so the score counts rows that hold the ground.
   const double k0 = std::hypot(w0.y(), w0.z());
   const double phi0 = std::atan2(w0.z(), w0.y());
-  const int row_cap = std::max(options.min_row_pixels, points.cols / kColumnStep / 4);
+  const int row_cap = std::max(options.min_row_pixels, points.cols / column_step / 4);
   const double log_factor = std::log(options.max_height_factor);
   double best_score = -1, best_k = k0, best_phi = phi0, best_offset = 0;
   std::vector<double> unit_v(static_cast<std::size_t>(points.rows));  // the row disparity / k

@@ -147,7 +147,8 @@ void ObstacleDetector::reduce_pair(PairBand band, const cv::Mat& left, const cv:
   grey_pair(l, rr, left8, right8);
 }
 
-cv::Mat ObstacleDetector::triangulated(const Pair& p, const cv::Mat& disparity) const {
+void ObstacleDetector::triangulate(const Pair& p, const cv::Mat& disparity, cv::Mat& points,
+                                   bool ground_columns) const {
   const camera::RectifiedCamera& grid = p.reduced.grid;
   const auto& r = grid.intrinsics();
   const Eigen::Vector3d& right_centre = p.reduced.right_centre_m;
@@ -171,14 +172,18 @@ cv::Mat ObstacleDetector::triangulated(const Pair& p, const cv::Mat& disparity) 
     sin_r[i] = std::abs(a) < M_PI / 2 ? std::sin(a) : kNan;
     cos_r[i] = std::cos(a);
   }
-  cv::Mat points(disparity.size(), CV_32FC3, cv::Scalar::all(kNan));
+  if (points.size() != disparity.size() || points.type() != CV_32FC3) {
+    points.create(disparity.size(), CV_32FC3);
+    points.setTo(cv::Scalar::all(kNan));
+  }
+  const int column_step = std::max(1, options_.ground.column_step);
   for (int row = 0; row < r.height; ++row) {
     const double beta = p.row_beta[static_cast<std::size_t>(row)];
     const double sb = std::sin(beta), cb = std::cos(beta);
     const auto* d = disparity.ptr<float>(row);
     auto* out = points.ptr<cv::Vec3f>(row);
     for (int c = 0; c < r.width; ++c) {
-      if (!(d[c] > 0)) continue;
+      if (!(d[c] > 0) || ((c % column_step == 0) != ground_columns)) continue;
       const auto i = static_cast<std::size_t>(c);
       const double right_column = c - d[c];
       const double step = right_column * steps - first_step;
@@ -206,7 +211,6 @@ cv::Mat ObstacleDetector::triangulated(const Pair& p, const cv::Mat& disparity) 
                          static_cast<float>(B * u.z()));
     }
   }
-  return points;
 }
 
 std::vector<Stixel> ObstacleDetector::stixels(const Pair& p, const cv::Mat& disparity,
@@ -400,7 +404,9 @@ PairObstacles ObstacleDetector::from_disparity(PairBand band, const cv::Mat& dis
   PairObstacles out;
   out.band = band;
   out.free_space_m.assign(static_cast<std::size_t>(grid_.width), kNan);
-  const cv::Mat points = triangulated(p, disparity);
+  // The columns the ground is fitted on first; the others only when there is a ground.
+  cv::Mat points;
+  triangulate(p, disparity, points, true);
   if (rig_ground != nullptr) {
     out.ground.status = GroundStatus::ok;
     out.ground.message = "the other pair's ground";
@@ -413,6 +419,7 @@ PairObstacles ObstacleDetector::from_disparity(PairBand band, const cv::Mat& dis
   const Eigen::Isometry3d T_rect_reporting = p.T_reporting_rect.inverse();
   out.ground_reporting = plane_in_frame(out.ground.plane, T_rect_reporting);
   if (!out.ground.ok()) return out;
+  triangulate(p, disparity, points, false);
 
   std::vector<int> ground_pixels;
   out.stixels =

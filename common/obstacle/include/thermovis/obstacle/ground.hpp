@@ -74,6 +74,7 @@ struct GroundOptions {
   double min_row_share = 0.35;    // of the searched rows holding ground: fewer -> no_ground
   int min_row_pixels = 4;         // pixels on the ground that make a row hold it
   double min_inlier_share = 0.4;  // of the valid pixels in the searched rows
+  int column_step = 4;  // the fit reads every column_step-th column (the ground spans hundreds)
 };
 
 struct GroundFit {
@@ -88,8 +89,9 @@ struct GroundFit {
 // Fits the ground to `points` (CV_32FC3: each pixel's triangulated point in the left rectified
 // frame, m; NaN where it has no disparity) of a grid whose rows are at `row_beta` (rad, one per
 // row), disparities scaled by `f_baseline_px_m` (f A, px m: the grid's px per rad times the
-// baseline). `prior` is in the same frame. Throws std::invalid_argument for a points image of
-// another type or a row_beta of another length.
+// baseline); it reads every options.column_step-th column. `prior` is in the same frame.
+// Throws std::invalid_argument for a points image of another type or a row_beta of another
+// length.
 GroundFit fit_ground(const cv::Mat& points, const std::vector<double>& row_beta,
                      double f_baseline_px_m, const GroundPlane& prior,
                      const GroundOptions& options = {});

@@ -178,7 +178,11 @@ class ObstacleDetector {
     std::vector<double> row_beta;  // per reduced row, rad
   };
   const Pair& pair(PairBand band) const;
-  cv::Mat triangulated(const Pair& p, const cv::Mat& disparity) const;
+  // Each pixel's point (left rectified frame, NaN where it has none) into `points` (made the
+  // disparity's size when it is not): the columns the ground is fitted on
+  // (GroundOptions::column_step), or the others.
+  void triangulate(const Pair& p, const cv::Mat& disparity, cv::Mat& points,
+                   bool ground_columns) const;
   // The columns' stixels; ground_pixels: per reduced column, its pixels on the ground.
   std::vector<Stixel> stixels(const Pair& p, const cv::Mat& disparity, const cv::Mat& points,
                               const GroundPlane& ground, const GroundPlane& ground_reporting,
