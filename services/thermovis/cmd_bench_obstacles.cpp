@@ -287,6 +287,14 @@ int run_bench_obstacles(const Options& opt) {
   const double false_per_100 =
       opt.empty_frames > 0 ? 100.0 * false_obstacles / opt.empty_frames : 0.0;
   if (opt.json) {
+    nlohmann::json targets = nlohmann::json::array();
+    for (const auto& [id, t] : per_target) {
+      targets.push_back({{"id", id},
+                         {"truth_distance_m", t.truth_sum_m / t.seen},
+                         {"in_view", t.seen},
+                         {"found", t.found},
+                         {"median_error_m", t.found ? percentile(t.errors, 50) : 0.0}});
+    }
     nlohmann::json per = nlohmann::json::array();
     for (std::size_t i = 0; i < bins.size(); ++i) {
       const Bin& b = bins[i];
@@ -304,6 +312,7 @@ int run_bench_obstacles(const Options& opt) {
                                 {"recall_up_to_m", opt.recall_m},
                                 {"recall_pct", recall},
                                 {"per_distance", per},
+                                {"targets", targets},
                                 {"obstacles", obstacles_total},
                                 {"obstacles_on_a_target", obstacles_on_target},
                                 {"pairs_without_ground", no_ground},

@@ -23,6 +23,15 @@ TEST(ObstacleCli, BenchFindsTheStreetsTargetsAndFewOnTheEmptyRoad) {
   EXPECT_EQ(near.at("distance_m"), "0-10");
   EXPECT_GT(near.at("found").get<int>(), 0) << j;
   EXPECT_LT(near.at("median_rel_error_pct").get<double>(), 5.0) << j;
+  // The standing person (15 m, still) is found in every capture.
+  bool standing = false;
+  for (const auto& t : j.at("targets")) {
+    if (t.at("id") != "standing") continue;
+    standing = true;
+    EXPECT_EQ(t.at("found"), t.at("in_view")) << t;
+    EXPECT_NEAR(t.at("truth_distance_m").get<double>(), 15.0, 0.5) << t;
+  }
+  EXPECT_TRUE(standing) << j;
 }
 
 TEST(ObstacleCli, BadArgumentsAreNamed) {
