@@ -14,6 +14,7 @@
 
 #include "capture_floor.hpp"
 #include "command.hpp"
+#include "scene_arg.hpp"
 #include "thermovis/metrics/percentile.hpp"
 #include "thermovis/pipeline/capture_pipeline.hpp"
 #include "thermovis/runtime/grid_options.hpp"
@@ -57,17 +58,11 @@ struct PerTarget {
   int within_sigma = 0;
 };
 
-std::string scene_path(const std::string& scene) {
-  return scene.find('/') == std::string::npos && scene.find(".yaml") == std::string::npos
-             ? thermovis::runtime::shipped_scene_path(scene).string()
-             : scene;
-}
-
 int run_bench_stages(const Options& opt) {
   if (opt.frames < 1) throw std::invalid_argument("--frames must be >= 1");
   if (opt.warmup < 0) throw std::invalid_argument("--warmup must be >= 0");
   const auto rig = thermovis::runtime::load_rig_or_default(opt.rig);
-  const sim::Scene scene = thermovis::runtime::load_scene(scene_path(opt.scene));
+  const sim::Scene scene = thermovis::runtime::load_scene(thermovis::cli::resolve_scene(opt.scene));
   const sim::SimulatedRig simulated(rig, scene, opt.seed);
   pl::CapturePipelineOptions options;
   options.grid = opt.grid;

@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "command.hpp"
+#include "scene_arg.hpp"
 #include "thermovis/runtime/rig_io.hpp"
 #include "thermovis/runtime/scene_io.hpp"
 #include "thermovis/sim/simulated_rig.hpp"
@@ -31,12 +32,7 @@ struct Options {
   bool json = false;
 };
 
-// A path, or the name of a shipped scene (deploy/scenes/<name>.yaml).
-fs::path resolve_scene(const std::string& arg) {
-  if (fs::exists(arg) || arg.find('/') != std::string::npos || fs::path(arg).has_extension())
-    return arg;
-  return thermovis::runtime::shipped_scene_path(arg);
-}
+using thermovis::cli::resolve_scene;
 
 nlohmann::json truth_json(const thermovis::sim::SimulatedRig& sim, std::int64_t frame,
                           std::uint64_t seed) {

@@ -64,6 +64,36 @@ PointTriangulation triangulate(const camera::RectifiedCamera& grid, double basel
   return t;
 }
 
+double distance_on_left_ray(const Eigen::Vector3d& u, const Eigen::Vector3d& c,
+                            double sin_alpha_right) {
+  // P = B u with (P - c).x = sin(alpha_R) |P - c|; squared, a quadratic in B. Of its roots the
+  // one in front (B > 0) on the right side of the right eye (the sign of sin(alpha_R)).
+  const double s = sin_alpha_right, s2 = s * s;
+  const double a = u.x() * u.x() - s2;
+  const double b = -2.0 * (u.x() * c.x() - s2 * u.dot(c));
+  const double q = c.x() * c.x() - s2 * c.squaredNorm();
+  double roots[2];
+  int n = 0;
+  if (std::abs(a) < 1e-15) {
+    if (std::abs(b) > 0) roots[n++] = -q / b;
+  } else {
+    const double disc = b * b - 4 * a * q;
+    if (disc >= 0) {
+      roots[n++] = (-b + std::sqrt(disc)) / (2 * a);
+      roots[n++] = (-b - std::sqrt(disc)) / (2 * a);
+    }
+  }
+  double best = std::numeric_limits<double>::quiet_NaN();
+  for (int i = 0; i < n; ++i) {
+    const double B = roots[i];
+    if (!(B > 0) || !std::isfinite(B)) continue;
+    const Eigen::Vector3d r = B * u - c;
+    if (std::abs(r.x() / r.norm() - s) > 1e-9 + 1e-6 * std::abs(s)) continue;  // squaring's root
+    if (std::isnan(best) || B < best) best = B;
+  }
+  return best;
+}
+
 PointTriangulation triangulate(const camera::RectifiedCamera& grid,
                                const Eigen::Vector3d& right_centre, const Eigen::Vector2d& left_px,
                                double disparity_px) {
@@ -76,34 +106,8 @@ PointTriangulation triangulate(const camera::RectifiedCamera& grid,
   if (!correspondence_angles(grid, left_px, right_column, t)) return t;
   const Eigen::Vector3d u(std::sin(t.alpha_left), std::cos(t.alpha_left) * std::sin(t.beta),
                           std::cos(t.alpha_left) * std::cos(t.beta));
-  const Eigen::Vector3d& c = right_centre;
-  // P = B u with (P - c).x = sin(alpha_R) |P - c|; squared, a quadratic in B. Of its roots the
-  // one in front (B > 0) on the right side of the right eye (the sign of sin(alpha_R)).
   auto distance_for = [&](double alpha_right) {
-    const double s = std::sin(alpha_right), s2 = s * s;
-    const double a = u.x() * u.x() - s2;
-    const double b = -2.0 * (u.x() * c.x() - s2 * u.dot(c));
-    const double q = c.x() * c.x() - s2 * c.squaredNorm();
-    double roots[2];
-    int n = 0;
-    if (std::abs(a) < 1e-15) {
-      if (std::abs(b) > 0) roots[n++] = -q / b;
-    } else {
-      const double disc = b * b - 4 * a * q;
-      if (disc >= 0) {
-        roots[n++] = (-b + std::sqrt(disc)) / (2 * a);
-        roots[n++] = (-b - std::sqrt(disc)) / (2 * a);
-      }
-    }
-    double best = std::numeric_limits<double>::quiet_NaN();
-    for (int i = 0; i < n; ++i) {
-      const double B = roots[i];
-      if (!(B > 0) || !std::isfinite(B)) continue;
-      const Eigen::Vector3d r = B * u - c;
-      if (std::abs(r.x() / r.norm() - s) > 1e-9 + 1e-6 * std::abs(s)) continue;  // squaring's root
-      if (std::isnan(best) || B < best) best = B;
-    }
-    return best;
+    return distance_on_left_ray(u, right_centre, std::sin(alpha_right));
   };
   t.distance_m = distance_for(t.alpha_right);
   if (!std::isfinite(t.distance_m) || !(t.distance_m > 0)) return t;

@@ -29,7 +29,7 @@ std::string error_of(const std::string& text) {
 }
 
 TEST(SceneIo, ShippedScenesParse) {
-  for (const char* name : {"paper", "night", "street"}) {
+  for (const char* name : {"paper", "night", "street", "obstacles"}) {
     SCOPED_TRACE(name);
     const auto scene = thermovis::runtime::load_scene(
         thermovis::test::source_root() / "deploy/scenes" / (std::string(name) + ".yaml"));

@@ -75,6 +75,12 @@ PointTriangulation triangulate(const camera::RectifiedCamera& grid,
                                const Eigen::Vector3d& right_centre, const Eigen::Vector2d& left_px,
                                double disparity_px);
 
+// Its core: the distance along the left eye's unit ray `u` (left rectified frame) of the point
+// that a right eye centred at `right_centre` sees at the angle whose sine is `sin_alpha_right`
+// (its column's alpha); NaN when there is none in front.
+double distance_on_left_ray(const Eigen::Vector3d& u, const Eigen::Vector3d& right_centre,
+                            double sin_alpha_right);
+
 // The triangulation the geometry calls for (right_centre_m zero: the rectified one).
 PointTriangulation triangulate(const RangingGeometry& geometry, const Eigen::Vector2d& left_px,
                                double disparity_px);

@@ -1,0 +1,168 @@
+#include "thermovis/obstacle/dense_disparity.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+#include <stdexcept>
+#include <vector>
+
+#include "thermovis/util/enum_names.hpp"
+
+namespace thermovis::obstacle {
+
+namespace {
+
+constexpr util::EnumName<DenseMethod> kMethodNames[] = {{DenseMethod::block_matching, "bm"},
+                                                        {DenseMethod::semi_global, "sgbm"}};
+
+void check_grey(const cv::Mat& image, const char* eye) {
+  if (image.empty()) throw std::invalid_argument(std::string("dense disparity: no ") + eye);
+  if (image.type() != CV_8UC1) {
+    throw std::invalid_argument(std::string("dense disparity: the ") + eye +
+                                " image is not CV_8UC1");
+  }
+}
+
+}  // namespace
+
+std::string method_name(DenseMethod method) { return util::name_of(kMethodNames, method, "?"); }
+
+DenseMethod parse_dense_method(const std::string& name) {
+  if (const auto m = util::parse(kMethodNames, name)) return *m;
+  throw std::invalid_argument("unknown dense disparity method '" + name + "' (expected " +
+                              util::join_names(kMethodNames, ", ", " or ") + ")");
+}
+
+cv::Mat dense_disparity(const cv::Mat& left, const cv::Mat& right, double max_disparity_px,
+                        const DenseOptions& options) {
+  check_grey(left, "left");
+  check_grey(right, "right");
+  if (left.size() != right.size()) {
+    throw std::invalid_argument("dense disparity: the left and right images differ in size");
+  }
+  if (!(max_disparity_px > 0) || !std::isfinite(max_disparity_px)) {
+    throw std::invalid_argument("dense disparity: the largest disparity is not > 0");
+  }
+  if (options.block_size < 5 || options.block_size % 2 == 0) {
+    throw std::invalid_argument("dense disparity: block size " +
+                                std::to_string(options.block_size) + " is not odd and >= 5");
+  }
+  const int range = 16 * static_cast<int>(std::ceil(max_disparity_px / 16.0));
+  cv::Mat fixed;  // CV_16S, 1/16 px
+  if (options.method == DenseMethod::block_matching) {
+    auto bm = cv::StereoBM::create(range, options.block_size);
+    bm->setUniquenessRatio(options.uniqueness_ratio);
+    bm->setTextureThreshold(options.texture_threshold);
+    bm->setSpeckleWindowSize(options.speckle_window);
+    bm->setSpeckleRange(16 * options.speckle_range_px);
+    bm->setPreFilterCap(31);
+    bm->compute(left, right, fixed);
+  } else {
+    const int b = options.block_size;
+    auto sgbm = cv::StereoSGBM::create(
+        0, range, b, 8 * b * b, 32 * b * b, 1, 31, options.uniqueness_ratio, options.speckle_window,
+        16 * options.speckle_range_px, cv::StereoSGBM::MODE_SGBM_3WAY);
+    sgbm->compute(left, right, fixed);
+  }
+  cv::Mat out(fixed.size(), CV_32F);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (int r = 0; r < fixed.rows; ++r) {
+    const auto* in = fixed.ptr<short>(r);
+    auto* o = out.ptr<float>(r);
+    for (int c = 0; c < fixed.cols; ++c) o[c] = in[c] > 0 ? static_cast<float>(in[c]) / 16.f : nan;
+  }
+  return out;
+}
+
+void grey_pair(const cv::Mat& left, const cv::Mat& right, cv::Mat& left8, cv::Mat& right8) {
+  if (left.empty() || right.empty()) throw std::invalid_argument("grey pair: an eye is empty");
+  if (left.size() != right.size() || left.type() != right.type()) {
+    throw std::invalid_argument("grey pair: the eyes differ in size or type");
+  }
+  switch (left.type()) {
+    case CV_8UC1:
+      left8 = left;
+      right8 = right;
+      return;
+    case CV_8UC3:
+      cv::cvtColor(left, left8, cv::COLOR_BGR2GRAY);
+      cv::cvtColor(right, right8, cv::COLOR_BGR2GRAY);
+      return;
+    case CV_16UC1: {
+      // Infrared counts: a scene spans tens of kelvin and a road's texture a fraction of one,
+      // so a linear stretch leaves the texture a few grey levels. The local detail (the image
+      // less its 9 x 9 mean) is kept instead, at one gain for both eyes: 3 robust sigmas of the
+      // left eye's detail over 64 grey levels. Pixels outside the cameras' field (0) stay flat.
+      cv::Mat lf, rf, lb, rb;
+      left.convertTo(lf, CV_32F);
+      right.convertTo(rf, CV_32F);
+      cv::blur(lf, lb, cv::Size(9, 9));
+      cv::blur(rf, rb, cv::Size(9, 9));
+      lf -= lb;
+      rf -= rb;
+      std::vector<float> detail;
+      detail.reserve(left.total() / 4 + 1);
+      for (int r = 0; r < left.rows; r += 2) {
+        const auto* src = left.ptr<std::uint16_t>(r);
+        const auto* d = lf.ptr<float>(r);
+        for (int c = 0; c < left.cols; c += 2) {
+          if (src[c] != 0) detail.push_back(std::abs(d[c]));
+        }
+      }
+      float spread = 1.0f;
+      if (!detail.empty()) {
+        const auto mid = detail.begin() + static_cast<std::ptrdiff_t>(detail.size() / 2);
+        std::nth_element(detail.begin(), mid, detail.end());
+        spread = std::max(1.4826f * *mid, 1e-3f);
+      }
+      const double gain = 64.0 / (3.0 * spread);
+      lf.convertTo(left8, CV_8U, gain, 128.0);
+      rf.convertTo(right8, CV_8U, gain, 128.0);
+      left8.setTo(128, left == 0);
+      right8.setTo(128, right == 0);
+      return;
+    }
+    default:
+      throw std::invalid_argument("grey pair: images are neither CV_8UC1, CV_8UC3 nor CV_16UC1");
+  }
+}
+
+DenseAccuracy evaluate_dense(const cv::Mat& disparity, const cv::Mat& ground_truth) {
+  if (disparity.type() != CV_32FC1 || ground_truth.type() != CV_32FC1 ||
+      disparity.size() != ground_truth.size()) {
+    throw std::invalid_argument(
+        "evaluate_dense: the disparity and the truth are not CV_32FC1 of one size");
+  }
+  DenseAccuracy a;
+  int valid = 0, bad1 = 0, bad2 = 0, bad1_valid = 0, bad2_valid = 0;
+  for (int r = 0; r < disparity.rows; ++r) {
+    const auto* d = disparity.ptr<float>(r);
+    const auto* t = ground_truth.ptr<float>(r);
+    for (int c = 0; c < disparity.cols; ++c) {
+      if (!std::isfinite(t[c]) || !(t[c] > 0)) continue;
+      ++a.truth_pixels;
+      if (!std::isfinite(d[c])) {
+        ++bad1;
+        ++bad2;
+        continue;
+      }
+      ++valid;
+      const float e = std::abs(d[c] - t[c]);
+      bad1 += e > 1.0f;
+      bad2 += e > 2.0f;
+      bad1_valid += e > 1.0f;
+      bad2_valid += e > 2.0f;
+    }
+  }
+  if (a.truth_pixels == 0) return a;
+  const double n = a.truth_pixels;
+  a.valid = valid / n;
+  a.bad1 = bad1 / n;
+  a.bad2 = bad2 / n;
+  a.bad1_valid = valid ? static_cast<double>(bad1_valid) / valid : 0.0;
+  a.bad2_valid = valid ? static_cast<double>(bad2_valid) / valid : 0.0;
+  return a;
+}
+
+}  // namespace thermovis::obstacle

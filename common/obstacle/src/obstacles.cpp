@@ -1,0 +1,538 @@
+#include "thermovis/obstacle/obstacles.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <opencv2/imgproc.hpp>
+#include <stdexcept>
+
+#include "thermovis/util/enum_names.hpp"
+
+namespace thermovis::obstacle {
+
+namespace {
+
+constexpr util::EnumName<PairBand> kBandNames[] = {{PairBand::visible, "visible"},
+                                                   {PairBand::infrared, "infrared"}};
+constexpr float kNan = std::numeric_limits<float>::quiet_NaN();
+
+// Horizontal part of a point (along the ground whose downward normal is n), m.
+double horizontal_distance(const Eigen::Vector3d& p, const Eigen::Vector3d& n) {
+  return (p - n.dot(p) * n).norm();
+}
+
+// The median (the upper one of an even count); reorders v.
+double median_of(std::vector<double>& v) {
+  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
+  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+// The point of the left pixel (column, row) of a reduced grid at disparity d (reduced px), in
+// the pair's left rectified frame; false where it does not triangulate.
+bool point_at(const range::RangingGeometry& g, double column, double row, double d,
+              Eigen::Vector3d& p) {
+  const range::PointTriangulation t = range::triangulate(g, Eigen::Vector2d(column, row), d);
+  if (!t.valid) return false;
+  p = t.position_left_rect;
+  return true;
+}
+
+}  // namespace
+
+std::string band_name(PairBand band) { return util::name_of(kBandNames, band, "unknown"); }
+
+bool ObstacleResult::ok() const {
+  return std::any_of(pairs.begin(), pairs.end(), [](const PairObstacles& p) { return p.ok(); });
+}
+
+ObstacleDetector::ObstacleDetector(const camera::RectifiedIntrinsics& grid,
+                                   std::vector<PairSetup> pairs,
+                                   const Eigen::Isometry3d& T_ref_reporting,
+                                   const GroundPrior& prior, const ObstacleOptions& options)
+    : grid_(grid), T_ref_reporting_(T_ref_reporting), options_(options) {
+  if (grid.width <= 0 || grid.height <= 0 || !(grid.f > 0)) {
+    throw std::invalid_argument("obstacles: the grid is empty or its f is not > 0");
+  }
+  const int k = options.reduction;
+  if (k < 1 || grid.width < 16 * k || grid.height < 16 * k) {
+    throw std::invalid_argument("obstacles: reduction " + std::to_string(k) +
+                                " is < 1 or leaves a grid under 16 px");
+  }
+  if (!(options.min_distance_m > 0) || !(options.max_distance_m > options.min_distance_m)) {
+    throw std::invalid_argument("obstacles: distances must be 0 < min < max");
+  }
+  const GroundPlane rig_ground = prior_plane(prior);
+  for (const PairSetup& setup : pairs) {
+    for (const Pair& other : pairs_) {
+      if (other.setup.band == setup.band) {
+        throw std::invalid_argument("obstacles: the " + band_name(setup.band) +
+                                    " pair is given twice");
+      }
+    }
+    if (!(setup.geometry.baseline_m > 0)) {
+      throw std::invalid_argument("obstacles: the " + band_name(setup.band) +
+                                  " pair's baseline is not > 0");
+    }
+    Pair p(setup);
+    p.prior = plane_in_frame(rig_ground, setup.geometry.T_ref_left_rect);
+    p.T_reporting_rect = T_ref_reporting.inverse() * setup.geometry.T_ref_left_rect;
+    // The prior's horizon (its ground's row disparity is 0 there), the rows kept above it, and
+    // below, the ground up to min_distance_m ahead (nearer is outside the disparity range) and
+    // the rows a stixel's base may reach below its foot.
+    const double beta_horizon = std::atan2(-p.prior.normal.z(), p.prior.normal.y());
+    const double top = grid.cy + grid.f * (beta_horizon - options.above_horizon_rad);
+    const double bottom =
+        grid.cy + grid.f * (beta_horizon + std::atan2(p.prior.height_m, options.min_distance_m)) +
+        (options.foot_rows + 2) * k;
+    const int last_row = std::clamp(static_cast<int>(std::ceil(bottom)), 16 * k, grid.height);
+    const int first_row = std::clamp(static_cast<int>(std::floor(top)), 0, last_row - 16 * k);
+    const int kept = (last_row - first_row) / k;
+    p.first_row = last_row - kept * k;
+    camera::RectifiedIntrinsics r = grid;
+    r.width = grid.width / k;
+    r.height = kept;
+    r.f = grid.f / k;
+    r.cx = (grid.cx + 0.5) / k - 0.5;
+    r.cy = (grid.cy - p.first_row + 0.5) / k - 0.5;
+    p.reduced = setup.geometry;
+    p.reduced.grid = camera::RectifiedCamera(r);
+    p.row_beta.resize(static_cast<std::size_t>(r.height));
+    for (int row = 0; row < r.height; ++row) {
+      p.row_beta[static_cast<std::size_t>(row)] = (row - r.cy) / r.f;
+    }
+    max_disparity_px_ =
+        std::max(max_disparity_px_, range::max_disparity_for(p.reduced, options.min_distance_m));
+    pairs_.push_back(std::move(p));
+  }
+}
+
+const ObstacleDetector::Pair& ObstacleDetector::pair(PairBand band) const {
+  for (const Pair& p : pairs_) {
+    if (p.setup.band == band) return p;
+  }
+  throw std::invalid_argument("obstacles: no " + band_name(band) + " pair set up");
+}
+
+bool ObstacleDetector::has(PairBand band) const {
+  return std::any_of(pairs_.begin(), pairs_.end(),
+                     [band](const Pair& p) { return p.setup.band == band; });
+}
+
+const camera::RectifiedIntrinsics& ObstacleDetector::reduced_grid(PairBand band) const {
+  return pair(band).reduced.grid.intrinsics();
+}
+
+int ObstacleDetector::first_grid_row(PairBand band) const { return pair(band).first_row; }
+
+void ObstacleDetector::reduce_pair(PairBand band, const cv::Mat& left, const cv::Mat& right,
+                                   cv::Mat& left8, cv::Mat& right8) const {
+  const Pair& p = pair(band);
+  if (left.size() != cv::Size(grid_.width, grid_.height) || right.size() != left.size()) {
+    throw std::invalid_argument("obstacles: the " + band_name(band) + " images are not " +
+                                std::to_string(grid_.width) + "x" + std::to_string(grid_.height) +
+                                " (the grid)");
+  }
+  const auto& r = p.reduced.grid.intrinsics();
+  const cv::Rect crop(0, p.first_row, r.width * options_.reduction, r.height * options_.reduction);
+  cv::Mat l, rr;
+  if (options_.reduction == 1) {
+    l = left(crop).clone();
+    rr = right(crop).clone();
+  } else {
+    cv::resize(left(crop), l, cv::Size(r.width, r.height), 0, 0, cv::INTER_AREA);
+    cv::resize(right(crop), rr, cv::Size(r.width, r.height), 0, 0, cv::INTER_AREA);
+  }
+  grey_pair(l, rr, left8, right8);
+}
+
+void ObstacleDetector::triangulate(const Pair& p, const cv::Mat& disparity, cv::Mat& points,
+                                   bool ground_columns) const {
+  const camera::RectifiedCamera& grid = p.reduced.grid;
+  const auto& r = grid.intrinsics();
+  const Eigen::Vector3d& right_centre = p.reduced.right_centre_m;
+  const bool on_axis = right_centre.isZero();
+  const double A = p.reduced.baseline_m;
+  std::vector<double> sin_a(static_cast<std::size_t>(r.width)), cos_a(sin_a.size());
+  for (int c = 0; c < r.width; ++c) {
+    const double alpha = grid.alpha_of_column(c);
+    sin_a[static_cast<std::size_t>(c)] = std::sin(alpha);
+    cos_a[static_cast<std::size_t>(c)] = std::cos(alpha);
+  }
+  // The right eye's column c - d at the matchers' 1/16 px steps: its angle's sine and cosine
+  // from a table (other disparities computed).
+  const int steps = 16;
+  const int first_step = -steps * static_cast<int>(std::ceil(max_disparity_px_ + 16));
+  std::vector<double> sin_r(static_cast<std::size_t>(steps * r.width - first_step)),
+      cos_r(sin_r.size());
+  for (std::size_t i = 0; i < sin_r.size(); ++i) {
+    const double a =
+        grid.alpha_of_column(static_cast<double>(static_cast<int>(i) + first_step) / steps);
+    sin_r[i] = std::abs(a) < M_PI / 2 ? std::sin(a) : kNan;
+    cos_r[i] = std::cos(a);
+  }
+  if (points.size() != disparity.size() || points.type() != CV_32FC3) {
+    points.create(disparity.size(), CV_32FC3);
+    points.setTo(cv::Scalar::all(kNan));
+  }
+  const int column_step = std::max(1, options_.ground.column_step);
+  for (int row = 0; row < r.height; ++row) {
+    const double beta = p.row_beta[static_cast<std::size_t>(row)];
+    const double sb = std::sin(beta), cb = std::cos(beta);
+    const auto* d = disparity.ptr<float>(row);
+    auto* out = points.ptr<cv::Vec3f>(row);
+    for (int c = 0; c < r.width; ++c) {
+      if (!(d[c] > 0) || ((c % column_step == 0) != ground_columns)) continue;
+      const auto i = static_cast<std::size_t>(c);
+      const double right_column = c - d[c];
+      const double step = right_column * steps - first_step;
+      double sr, cr;
+      if (step >= 0 && step < static_cast<double>(sin_r.size()) && step == std::floor(step)) {
+        sr = sin_r[static_cast<std::size_t>(step)];
+        cr = cos_r[static_cast<std::size_t>(step)];
+      } else {
+        const double a = grid.alpha_of_column(right_column);
+        sr = std::abs(a) < M_PI / 2 ? std::sin(a) : kNan;
+        cr = std::cos(a);
+      }
+      if (!std::isfinite(sr)) continue;
+      const Eigen::Vector3d u(sin_a[i], cos_a[i] * sb, cos_a[i] * cb);
+      double B;
+      if (on_axis) {
+        const double s = sin_a[i] * cr - cos_a[i] * sr;  // sin(alpha_L - alpha_R)
+        if (!(s > 1e-9)) continue;
+        B = A * cr / s;
+      } else {
+        B = range::distance_on_left_ray(u, right_centre, sr);
+      }
+      if (!(B > 0) || !std::isfinite(B)) continue;
+      out[c] = cv::Vec3f(static_cast<float>(B * u.x()), static_cast<float>(B * u.y()),
+                         static_cast<float>(B * u.z()));
+    }
+  }
+}
+
+std::vector<Stixel> ObstacleDetector::stixels(const Pair& p, const cv::Mat& disparity,
+                                              const cv::Mat& points, const GroundPlane& ground,
+                                              const GroundPlane& ground_reporting,
+                                              std::vector<int>& ground_pixels) const {
+  const auto& r = p.reduced.grid.intrinsics();
+  const double f_baseline = r.f * p.reduced.baseline_m;
+  const int k = options_.reduction;
+  // Each pixel: whether it stands above the ground by more than min_height_m and 3 sigma of its
+  // height's noise (its point moves along its ray by B^2 / (f A) per px); whether it is on the
+  // ground (within min_height_m), counted per column for the free space.
+  cv::Mat stand(points.size(), CV_8U, cv::Scalar(0));
+  ground_pixels.assign(static_cast<std::size_t>(r.width), 0);
+  const Eigen::Vector3f n = ground.normal.cast<float>();
+  const auto h = static_cast<float>(ground.height_m);
+  const auto noise = static_cast<float>(3 * options_.disparity_sigma_px / f_baseline);
+  const auto min_height = static_cast<float>(options_.min_height_m);
+  for (int row = 0; row < r.height; ++row) {
+    const auto* pv = points.ptr<cv::Vec3f>(row);
+    auto* st = stand.ptr<std::uint8_t>(row);
+    for (int c = 0; c < r.width; ++c) {
+      const cv::Vec3f& P = pv[c];
+      if (!std::isfinite(P[2])) continue;
+      const float down = n.x() * P[0] + n.y() * P[1] + n.z() * P[2];
+      const float height = h - down;
+      const float B = std::sqrt(P.dot(P));
+      if (height > min_height + std::abs(down) * B * noise) {
+        st[c] = 1;
+      } else if (std::abs(height) < min_height) {
+        ++ground_pixels[static_cast<std::size_t>(c)];
+      }
+    }
+  }
+  std::vector<Stixel> out;
+  std::vector<std::pair<int, double>> members;  // row, disparity
+  std::vector<double> ds, deviations;
+  for (int c = 0; c < r.width; ++c) {
+    auto stands = [&](int row) { return stand.at<std::uint8_t>(row, c) != 0; };
+    for (int row = r.height - 1; row >= 0; --row) {
+      const float d0 = disparity.at<float>(row, c);
+      if (!(d0 > 0) || !stands(row)) continue;
+      // A candidate base: collect upwards the pixels at its disparity that stand above the
+      // ground (far ground rows differ little in disparity: they are not a stixel).
+      members.clear();
+      double mean = d0;
+      int gap = 0, top = row;
+      for (int up = row; up >= 0; --up) {
+        const float d = disparity.at<float>(up, c);
+        const double tol = options_.stixel_tolerance_px + options_.stixel_tolerance_share * mean;
+        if (d > 0 && std::abs(d - mean) <= tol && stands(up)) {
+          members.emplace_back(up, d);
+          mean += (d - mean) / static_cast<double>(members.size());
+          gap = 0;
+          top = up;
+        } else if (++gap > options_.max_gap_rows) {
+          break;
+        }
+      }
+      if (static_cast<int>(members.size()) < options_.min_stixel_rows) continue;
+      ds.clear();
+      for (const auto& m : members) ds.push_back(m.second);
+      const double d_med = median_of(ds);
+      deviations.clear();
+      for (double d : ds) deviations.push_back(std::abs(d - d_med));
+      const double spread = std::max(1.4826 * median_of(deviations), options_.disparity_sigma_px);
+      Eigen::Vector3d top_p, mid_p, near_p, far_p, base_p;
+      const double mid_row = 0.5 * (row + top);
+      if (!point_at(p.reduced, c, row, d_med, base_p) ||
+          !point_at(p.reduced, c, top, d_med, top_p) ||
+          !point_at(p.reduced, c, mid_row, d_med, mid_p) ||
+          !point_at(p.reduced, c, mid_row, d_med + 0.5, near_p) ||
+          !point_at(p.reduced, c, mid_row, std::max(d_med - 0.5, 0.05), far_p)) {
+        continue;
+      }
+      // It stands on the ground: its base at its disparity is on the ground, give or take the
+      // height's noise, one row, and below the ground the rows the matcher's block smears it
+      // down by (a false match floating over the road is not; nor is the horizon's edge, whose
+      // disparity is an error of the edge's slope).
+      const double sigma_d =
+          std::sqrt(options_.systematic_disparity_px * options_.systematic_disparity_px +
+                    spread * spread / static_cast<double>(members.size()));
+      const double B = mid_p.norm();
+      const double row_m = B / r.f;  // one reduced row at its distance
+      const double sigma_h = B * B / f_baseline * sigma_d;
+      const double foot = ground.height_of(base_p);
+      const double height = ground.height_of(top_p);
+      const double foot_noise = 3 * sigma_h * std::abs(ground.normal.dot(base_p)) / B;
+      if (foot > options_.min_obstacle_height_m + row_m + foot_noise ||
+          -foot > options_.min_obstacle_height_m + options_.foot_rows * row_m + foot_noise ||
+          height < options_.min_obstacle_height_m +
+                       3 * sigma_h * std::abs(ground.normal.dot(top_p)) / B) {
+        row = top;
+        continue;
+      }
+      Stixel s;
+      s.column = c;
+      s.base_row = (row + 1) * k - 1 + p.first_row;
+      s.top_row = top * k + p.first_row;
+      s.disparity_px = d_med;
+      s.middle_m = p.T_reporting_rect * mid_p;
+      s.distance_m = horizontal_distance(s.middle_m, ground_reporting.normal);
+      if (s.distance_m > options_.max_distance_m) break;  // the column's first is too far
+      const double per_px =
+          std::abs(horizontal_distance(p.T_reporting_rect * far_p, ground_reporting.normal) -
+                   horizontal_distance(p.T_reporting_rect * near_p, ground_reporting.normal));
+      s.sigma_m = per_px * sigma_d;
+      s.height_m = height;
+      out.push_back(s);
+      break;  // the column's first obstacle only
+    }
+  }
+  return out;
+}
+
+std::vector<Obstacle> ObstacleDetector::cluster(const std::vector<Stixel>& stixels, PairBand band,
+                                                const GroundPlane& ground_reporting,
+                                                std::vector<int>* kept_columns) const {
+  std::vector<Obstacle> out;
+  const int k = options_.reduction;
+  std::size_t start = 0;
+  auto close = [&](std::size_t begin, std::size_t end) {
+    if (static_cast<int>(end - begin) < options_.min_obstacle_columns) return;
+    Obstacle o;
+    o.bands = band_bit(band);
+    o.stixels = static_cast<int>(end - begin);
+    const Stixel* nearest = &stixels[begin];
+    int x0 = grid_.width, x1 = 0, y0 = grid_.height, y1 = 0;
+    double far = 0;
+    for (std::size_t i = begin; i < end; ++i) {
+      const Stixel& s = stixels[i];
+      if (s.distance_m < nearest->distance_m) nearest = &s;
+      far = std::max(far, s.distance_m);
+      x0 = std::min(x0, s.column * k);
+      x1 = std::max(x1, (s.column + 1) * k - 1);
+      y0 = std::min(y0, s.top_row);
+      y1 = std::max(y1, s.base_row);
+      o.position_m += s.middle_m;
+      o.extent_m.y() = std::max(o.extent_m.y(), s.height_m);
+    }
+    o.position_m /= static_cast<double>(o.stixels);
+    const Eigen::Vector3d& n = ground_reporting.normal;
+    const Eigen::Vector3d across = stixels[end - 1].middle_m - stixels[begin].middle_m;
+    o.extent_m.x() = (across - n.dot(across) * n).norm();
+    o.extent_m.z() = far - nearest->distance_m;
+    // The near face: the stixels within 2 sigma of the nearest one, at their median (the
+    // nearest alone is biased near by its noise: the least of several noisy distances).
+    std::vector<double> near_face, near_sigma;
+    for (std::size_t i = begin; i < end; ++i) {
+      if (stixels[i].distance_m <= nearest->distance_m + 2 * nearest->sigma_m) {
+        near_face.push_back(stixels[i].distance_m);
+        near_sigma.push_back(stixels[i].sigma_m);
+      }
+    }
+    o.distance_m = median_of(near_face);
+    o.sigma_m = median_of(near_sigma) / std::sqrt(static_cast<double>(near_face.size()));
+    o.box = cv::Rect(cv::Point(x0, y0), cv::Point(x1 + 1, y1 + 1));
+    // Too far to range: one stixel's sigma over max_sigma_share of the distance.
+    if (nearest->sigma_m > options_.max_sigma_share * o.distance_m) return;
+    for (std::size_t i = begin; i < end && kept_columns != nullptr; ++i) {
+      kept_columns->push_back(static_cast<int>(i));
+    }
+    out.push_back(o);
+  };
+  for (std::size_t i = 1; i <= stixels.size(); ++i) {
+    if (i < stixels.size()) {
+      const Stixel& a = stixels[i - 1];
+      const Stixel& b = stixels[i];
+      const double tol = options_.cluster_tolerance_m +
+                         options_.cluster_tolerance_share * std::min(a.distance_m, b.distance_m);
+      if (b.column - a.column - 1 <= options_.max_cluster_gap_columns &&
+          std::abs(a.distance_m - b.distance_m) <= tol) {
+        continue;
+      }
+    }
+    close(start, i);
+    start = i;
+  }
+  return out;
+}
+
+PairObstacles ObstacleDetector::from_disparity(PairBand band, const cv::Mat& disparity,
+                                               const GroundPlane* rig_ground) const {
+  const Pair& p = pair(band);
+  const auto& r = p.reduced.grid.intrinsics();
+  if (disparity.type() != CV_32FC1 || disparity.size() != cv::Size(r.width, r.height)) {
+    throw std::invalid_argument("obstacles: the " + band_name(band) + " disparity is not " +
+                                std::to_string(r.width) + "x" + std::to_string(r.height) +
+                                " CV_32FC1 (the reduced grid)");
+  }
+  PairObstacles out;
+  out.band = band;
+  out.free_space_m.assign(static_cast<std::size_t>(grid_.width), kNan);
+  // The columns the ground is fitted on first; the others only when there is a ground.
+  cv::Mat points;
+  triangulate(p, disparity, points, true);
+  if (rig_ground != nullptr) {
+    out.ground.status = GroundStatus::ok;
+    out.ground.message = "the other pair's ground";
+    out.ground.plane = plane_in_frame(*rig_ground, p.setup.geometry.T_ref_left_rect);
+    out.ground_from_other = true;
+  } else {
+    out.ground =
+        fit_ground(points, p.row_beta, r.f * p.reduced.baseline_m, p.prior, options_.ground);
+  }
+  const Eigen::Isometry3d T_rect_reporting = p.T_reporting_rect.inverse();
+  out.ground_reporting = plane_in_frame(out.ground.plane, T_rect_reporting);
+  if (!out.ground.ok()) return out;
+  triangulate(p, disparity, points, false);
+
+  std::vector<int> ground_pixels;
+  out.stixels =
+      stixels(p, disparity, points, out.ground.plane, out.ground_reporting, ground_pixels);
+  std::vector<int> kept;
+  out.obstacles = cluster(out.stixels, band, out.ground_reporting, &kept);
+  // Free space per reduced column: its kept stixel's distance; the farthest range where the
+  // column holds the ground and no obstacle; unknown (NaN) where it holds neither.
+  std::vector<float> reduced(static_cast<std::size_t>(r.width), kNan);
+  for (int c = 0; c < r.width; ++c) {
+    if (ground_pixels[static_cast<std::size_t>(c)] >= options_.min_stixel_rows) {
+      reduced[static_cast<std::size_t>(c)] = static_cast<float>(options_.max_distance_m);
+    }
+  }
+  for (int i : kept) {
+    const Stixel& s = out.stixels[static_cast<std::size_t>(i)];
+    reduced[static_cast<std::size_t>(s.column)] = static_cast<float>(s.distance_m);
+  }
+  for (int x = 0; x < grid_.width; ++x) {
+    out.free_space_m[static_cast<std::size_t>(x)] =
+        reduced[static_cast<std::size_t>(std::min(x / options_.reduction, r.width - 1))];
+  }
+  return out;
+}
+
+cv::Mat ObstacleDetector::disparity(PairBand band, const cv::Mat& left,
+                                    const cv::Mat& right) const {
+  cv::Mat left8, right8;
+  reduce_pair(band, left, right, left8, right8);
+  return dense_disparity(left8, right8, max_disparity_px_, options_.dense);
+}
+
+PairObstacles ObstacleDetector::detect_pair(PairBand band, const cv::Mat& left,
+                                            const cv::Mat& right) const {
+  return from_disparity(band, disparity(band, left, right));
+}
+
+ObstacleResult ObstacleDetector::detect(const cv::Mat& visible_left, const cv::Mat& visible_right,
+                                        const cv::Mat& infrared_left,
+                                        const cv::Mat& infrared_right) const {
+  std::vector<std::pair<PairBand, cv::Mat>> disparities;
+  for (const Pair& p : pairs_) {
+    const bool visible = p.setup.band == PairBand::visible;
+    const cv::Mat& l = visible ? visible_left : infrared_left;
+    const cv::Mat& r = visible ? visible_right : infrared_right;
+    if (l.empty() && r.empty()) continue;
+    disparities.emplace_back(p.setup.band, disparity(p.setup.band, l, r));
+  }
+  return from_disparities(disparities);
+}
+
+ObstacleResult ObstacleDetector::from_disparities(
+    const std::vector<std::pair<PairBand, cv::Mat>>& disparities) const {
+  std::vector<PairObstacles> found;
+  for (const auto& [band, d] : disparities) found.push_back(from_disparity(band, d));
+  // A pair without a ground of its own on the other's (in the rig frame).
+  for (std::size_t i = 0; i < found.size() && options_.share_ground; ++i) {
+    if (found[i].ok()) continue;
+    for (std::size_t j = 0; j < found.size(); ++j) {
+      if (j == i || !found[j].ok() || found[j].ground_from_other) continue;
+      const GroundPlane rig_ground = plane_in_frame(
+          found[j].ground.plane, pair(found[j].band).setup.geometry.T_ref_left_rect.inverse());
+      const GroundFit own = found[i].ground;
+      found[i] = from_disparity(found[i].band, disparities[i].second, &rig_ground);
+      found[i].ground.message += " (its own: " + status_name(own.status) + ", " + own.message + ")";
+      break;
+    }
+  }
+  return combine(std::move(found));
+}
+
+ObstacleResult ObstacleDetector::combine(std::vector<PairObstacles> pairs) const {
+  ObstacleResult out;
+  out.pairs = std::move(pairs);
+  out.free_space_m.assign(static_cast<std::size_t>(grid_.width), kNan);
+  for (const PairObstacles& p : out.pairs) {
+    if (!p.ok()) continue;
+    for (std::size_t x = 0; x < out.free_space_m.size(); ++x) {
+      const float v = p.free_space_m[x];
+      if (std::isfinite(v) && !(out.free_space_m[x] <= v)) out.free_space_m[x] = v;
+    }
+    for (const Obstacle& o : p.obstacles) {
+      // The same obstacle seen by the other pair: boxes overlapping by a third of the smaller
+      // and distances within 3 sigma (+ 5 %).
+      Obstacle* same = nullptr;
+      for (Obstacle& q : out.obstacles) {
+        if ((q.bands & o.bands) != 0) continue;
+        const double overlap = (q.box & o.box).area();
+        const double sigma = std::hypot(q.sigma_m, o.sigma_m);
+        if (overlap > std::min(q.box.area(), o.box.area()) / 3.0 &&
+            std::abs(q.distance_m - o.distance_m) <= 3 * sigma + 0.05 * o.distance_m) {
+          same = &q;
+          break;
+        }
+      }
+      if (same == nullptr) {
+        out.obstacles.push_back(o);
+        continue;
+      }
+      const double wa = 1.0 / std::max(1e-12, same->sigma_m * same->sigma_m);
+      const double wb = 1.0 / std::max(1e-12, o.sigma_m * o.sigma_m);
+      same->distance_m = (wa * same->distance_m + wb * o.distance_m) / (wa + wb);
+      same->sigma_m = 1.0 / std::sqrt(wa + wb);
+      same->position_m = (wa * same->position_m + wb * o.position_m) / (wa + wb);
+      same->extent_m = same->extent_m.cwiseMax(o.extent_m);
+      same->box |= o.box;
+      same->bands |= o.bands;
+      same->stixels += o.stixels;
+    }
+  }
+  std::sort(out.obstacles.begin(), out.obstacles.end(),
+            [](const Obstacle& a, const Obstacle& b) { return a.distance_m < b.distance_m; });
+  return out;
+}
+
+}  // namespace thermovis::obstacle

@@ -1,0 +1,18 @@
+#pragma once
+// A command's --scene argument: a path, or the name of a shipped scene
+// (deploy/scenes/<name>.yaml).
+#include <filesystem>
+#include <string>
+
+#include "thermovis/runtime/scene_io.hpp"
+
+namespace thermovis::cli {
+
+inline std::filesystem::path resolve_scene(const std::string& arg) {
+  namespace fs = std::filesystem;
+  if (fs::exists(arg) || arg.find('/') != std::string::npos || fs::path(arg).has_extension())
+    return arg;
+  return runtime::shipped_scene_path(arg);
+}
+
+}  // namespace thermovis::cli

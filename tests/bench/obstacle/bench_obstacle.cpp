@@ -1,0 +1,111 @@
+// The obstacle stage (common/obstacle) on one capture of the simulated street scene, rectified
+// onto the pipeline grid (0.5 of the visible pair's default grid, 936 x 566 for the paper rig),
+// one core: both pairs (the default), the visible pair alone, the infrared pair alone, and the
+// parts of one visible pair (dense disparity; the ground, stixels and obstacles after it). The
+// real-time budget is 5 ms of CPU per capture for the whole stage (issue 18).
+#include <benchmark/benchmark.h>
+
+#include <opencv2/core.hpp>
+
+#include "thermovis/obstacle/obstacles.hpp"
+#include "thermovis/pipeline/capture_pipeline.hpp"
+#include "thermovis/runtime/rig_io.hpp"
+#include "thermovis/runtime/scene_io.hpp"
+#include "thermovis/sim/simulated_rig.hpp"
+
+namespace {
+
+namespace ob = thermovis::obstacle;
+namespace pl = thermovis::pipeline;
+namespace sim = thermovis::sim;
+
+struct Fixture {
+  Fixture() {
+    const auto rig = thermovis::runtime::load_rig(thermovis::runtime::default_rig_path());
+    const sim::Scene scene =
+        thermovis::runtime::load_scene(thermovis::runtime::shipped_scene_path("street"));
+    const sim::SimulatedRig simulated(rig, scene, 1);
+    sim::FrameSet frames = simulated.allocate();
+    simulated.render(0, frames);
+    pl::CapturePipeline pipeline(rig);
+    capture =
+        pipeline.rectify({frames[sim::Slot::visible_left], frames[sim::Slot::visible_right],
+                          frames[sim::Slot::infrared_left], frames[sim::Slot::infrared_right]});
+    const pl::PipelineGeometry& g = pipeline.geometry();
+    ob::GroundPrior prior;
+    prior.camera_height_m = scene.camera_height_m;
+    detector = std::make_unique<ob::ObstacleDetector>(
+        g.grid,
+        std::vector<ob::PairSetup>{{ob::PairBand::visible, g.ranging(pl::Band::visible)},
+                                   {ob::PairBand::infrared, g.ranging(pl::Band::infrared)}},
+        g.T_ref_reporting, prior);
+  }
+  pl::GridCapture capture;
+  std::unique_ptr<ob::ObstacleDetector> detector;
+};
+
+const Fixture& fixture() {
+  cv::setNumThreads(1);
+  static const Fixture f;
+  return f;
+}
+
+void BM_ObstaclesBothPairs(benchmark::State& state) {
+  const Fixture& f = fixture();
+  std::size_t found = 0;
+  for (auto _ : state) {
+    const ob::ObstacleResult r =
+        f.detector->detect(f.capture.grey_left, f.capture.grey_right, f.capture.infrared_left,
+                           f.capture.infrared_right);
+    found = r.obstacles.size();
+    benchmark::DoNotOptimize(found);
+  }
+  state.counters["obstacles"] = static_cast<double>(found);
+}
+BENCHMARK(BM_ObstaclesBothPairs)->Unit(benchmark::kMillisecond);
+
+void BM_ObstaclesOnePair(benchmark::State& state) {
+  const Fixture& f = fixture();
+  const bool visible = state.range(0) == 0;
+  state.SetLabel(visible ? "visible" : "infrared");
+  for (auto _ : state) {
+    const ob::PairObstacles r =
+        visible ? f.detector->detect_pair(ob::PairBand::visible, f.capture.grey_left,
+                                          f.capture.grey_right)
+                : f.detector->detect_pair(ob::PairBand::infrared, f.capture.infrared_left,
+                                          f.capture.infrared_right);
+    benchmark::DoNotOptimize(r.obstacles.size());
+  }
+}
+BENCHMARK(BM_ObstaclesOnePair)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+
+// The visible pair's parts: reduction + dense disparity, then the rest from the disparity.
+void BM_VisibleDenseDisparity(benchmark::State& state) {
+  const Fixture& f = fixture();
+  for (auto _ : state) {
+    cv::Mat l8, r8;
+    f.detector->reduce_pair(ob::PairBand::visible, f.capture.grey_left, f.capture.grey_right, l8,
+                            r8);
+    const cv::Mat d =
+        ob::dense_disparity(l8, r8, f.detector->max_disparity_px(), f.detector->options().dense);
+    benchmark::DoNotOptimize(d.data);
+  }
+}
+BENCHMARK(BM_VisibleDenseDisparity)->Unit(benchmark::kMillisecond);
+
+void BM_VisibleFromDisparity(benchmark::State& state) {
+  const Fixture& f = fixture();
+  cv::Mat l8, r8;
+  f.detector->reduce_pair(ob::PairBand::visible, f.capture.grey_left, f.capture.grey_right, l8, r8);
+  const cv::Mat d =
+      ob::dense_disparity(l8, r8, f.detector->max_disparity_px(), f.detector->options().dense);
+  for (auto _ : state) {
+    const ob::PairObstacles r = f.detector->from_disparity(ob::PairBand::visible, d);
+    benchmark::DoNotOptimize(r.obstacles.size());
+  }
+}
+BENCHMARK(BM_VisibleFromDisparity)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();

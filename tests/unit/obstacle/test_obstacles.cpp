@@ -1,0 +1,317 @@
+// The obstacle detector on exact synthetic disparity maps (a road, a box standing on it, a wall,
+// the sky) and on simulated street captures rectified as the pipeline does.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "thermovis/obstacle/obstacles.hpp"
+#include "thermovis/pipeline/capture_pipeline.hpp"
+#include "thermovis/runtime/rig_io.hpp"
+#include "thermovis/runtime/scene_io.hpp"
+#include "thermovis/sim/simulated_rig.hpp"
+
+namespace ob = thermovis::obstacle;
+namespace cam = thermovis::camera;
+namespace rg = thermovis::range;
+
+namespace {
+
+constexpr double kBaseline = 0.3, kHeight = 1.4;
+
+// A grid like the pipeline's (equirectangular, 120 deg wide) and a level pair on it.
+cam::RectifiedIntrinsics synthetic_grid() {
+  cam::RectifiedIntrinsics g;
+  g.width = 800;
+  g.height = 480;
+  g.f = 380;
+  g.cx = 399.5;
+  g.cy = 239.5;
+  return g;
+}
+
+ob::ObstacleDetector synthetic_detector(const ob::ObstacleOptions& options = {}) {
+  const cam::RectifiedIntrinsics g = synthetic_grid();
+  const rg::RangingGeometry pair{cam::RectifiedCamera(g), kBaseline, Eigen::Isometry3d::Identity()};
+  return ob::ObstacleDetector(g, {{ob::PairBand::visible, pair}}, Eigen::Isometry3d::Identity(),
+                              ob::GroundPrior{kHeight, 0.0, 0.0}, options);
+}
+
+// A box's face towards the rig: z = distance, x in [x0, x1], from the ground up to height.
+struct Face {
+  double distance_m, x0, x1, height_m;
+};
+
+// The exact disparity (1/16 px steps, as the matchers give) of the reduced grid's pixels on the
+// ground y = kHeight (to 80 m) and the faces; NaN where the ray meets nothing (sky). `wall_m`
+// > 0: a wall across the whole view at that distance instead.
+// `right_centre` non-zero: the right eye there (left rectified frame), off the grid's axis, as
+// the pipeline's infrared pair is; its column is that of the angle out of the y-z plane from it.
+cv::Mat synthetic_disparity(const ob::ObstacleDetector& d, const std::vector<Face>& faces,
+                            double wall_m = 0, ob::PairBand band = ob::PairBand::visible,
+                            const Eigen::Vector3d& right_centre = Eigen::Vector3d::Zero()) {
+  const cam::RectifiedCamera grid(d.reduced_grid(band));
+  const auto& r = grid.intrinsics();
+  cv::Mat out(r.height, r.width, CV_32F, cv::Scalar(NAN));
+  for (int y = 0; y < r.height; ++y)
+    for (int x = 0; x < r.width; ++x) {
+      Eigen::Vector3d u;
+      if (!grid.unproject({x, y}, u)) continue;
+      u.normalize();
+      double t = u.y() > 0 ? kHeight / u.y() : INFINITY;
+      if (t > 80) t = INFINITY;
+      if (wall_m > 0 && u.z() > 0) t = wall_m / u.z();
+      for (const Face& f : faces) {
+        if (!(u.z() > 0)) continue;
+        const double tf = f.distance_m / u.z();
+        const Eigen::Vector3d p = tf * u;
+        if (tf < t && p.x() >= f.x0 && p.x() <= f.x1 && p.y() <= kHeight &&
+            p.y() >= kHeight - f.height_m) {
+          t = tf;
+        }
+      }
+      if (!std::isfinite(t)) continue;
+      Eigen::Vector2d px;
+      double disparity = 0;
+      if (right_centre.isZero()) {
+        if (!rg::project_point(grid, kBaseline, t * u, px, disparity)) continue;
+      } else {
+        const Eigen::Vector3d from_right = t * u - right_centre;
+        disparity = x - grid.column_of_alpha(std::asin(from_right.x() / from_right.norm()));
+      }
+      out.at<float>(y, x) = static_cast<float>(std::round(disparity * 16) / 16);
+    }
+  return out;
+}
+
+}  // namespace
+
+TEST(ObstacleDetector, AnEmptyRoadHasItsGroundAndNoObstacle) {
+  const ob::ObstacleDetector d = synthetic_detector();
+  const ob::PairObstacles r = d.from_disparity(ob::PairBand::visible, synthetic_disparity(d, {}));
+  ASSERT_TRUE(r.ok()) << r.ground.message;
+  EXPECT_NEAR(r.ground.plane.height_m, kHeight, 0.01);
+  EXPECT_TRUE(r.obstacles.empty()) << r.obstacles.size() << " obstacles, the first at "
+                                   << r.obstacles.front().distance_m << " m";
+  // Free all the way in the middle of the view.
+  EXPECT_FLOAT_EQ(r.free_space_m[400], static_cast<float>(d.options().max_distance_m));
+}
+
+TEST(ObstacleDetector, ABoxOnTheRoadIsFoundAtItsDistance) {
+  // A box 1 m wide and 0.8 m high, its face 12 m ahead, and a pole-like one at 6 m to the left.
+  const ob::ObstacleDetector d = synthetic_detector();
+  const ob::PairObstacles r =
+      d.from_disparity(ob::PairBand::visible,
+                       synthetic_disparity(d, {{12.0, 0.5, 1.5, 0.8}, {6.0, -2.2, -1.9, 2.0}}));
+  ASSERT_TRUE(r.ok()) << r.ground.message;
+  ASSERT_EQ(r.obstacles.size(), 2u);
+  // Nearest first: the pole at 6 m (its face's nearest column about 6.3 m away horizontally).
+  const ob::Obstacle& pole = r.obstacles[0];
+  const ob::Obstacle& box = r.obstacles[1];
+  EXPECT_NEAR(pole.distance_m, std::hypot(6.0, 1.9), 0.15);
+  EXPECT_NEAR(box.distance_m, std::hypot(12.0, 0.5), 0.3);
+  EXPECT_GT(box.sigma_m, 0.0);
+  EXPECT_LT(box.sigma_m, 0.5);
+  EXPECT_NEAR(box.extent_m.x(), 1.0, 0.25);  // width
+  EXPECT_NEAR(box.extent_m.y(), 0.8, 0.2);   // height above the ground
+  EXPECT_NEAR(pole.extent_m.y(), 2.0, 0.3);
+  EXPECT_NEAR(box.position_m.z(), 12.0, 0.3);
+  EXPECT_NEAR(box.position_m.x(), 1.0, 0.2);
+  EXPECT_EQ(box.bands, ob::kVisibleBit);
+  // Its box on the grid holds the face's centre; the free space in front of it is its distance.
+  Eigen::Vector2d centre;
+  cam::RectifiedCamera(synthetic_grid()).project(Eigen::Vector3d(1.0, kHeight - 0.4, 12.0), centre);
+  EXPECT_TRUE(
+      box.box.contains(cv::Point(static_cast<int>(centre.x()), static_cast<int>(centre.y()))))
+      << "box " << box.box << ", face centre " << centre.transpose();
+  EXPECT_NEAR(r.free_space_m[static_cast<std::size_t>(centre.x())], box.distance_m, 0.3);
+}
+
+TEST(ObstacleDetector, ARightEyeOffTheGridsAxisIsTriangulatedWhereItIs) {
+  // The pipeline's infrared pair: its right eye 0.35 m along the grid's x axis and 67 mm off
+  // it. A box 37-39 deg to the right, where taking the eye as on the axis would move it by
+  // several per cent.
+  const cam::RectifiedIntrinsics g = synthetic_grid();
+  const Eigen::Vector3d right(0.35, 0.06, 0.03);
+  rg::RangingGeometry pair{cam::RectifiedCamera(g), right.x(), Eigen::Isometry3d::Identity()};
+  pair.right_centre_m = right;
+  const ob::ObstacleDetector d(g, {{ob::PairBand::infrared, pair}}, Eigen::Isometry3d::Identity(),
+                               ob::GroundPrior{kHeight, 0.0, 0.0});
+  const ob::PairObstacles r = d.from_disparity(
+      ob::PairBand::infrared,
+      synthetic_disparity(d, {{8.0, 5.5, 6.5, 1.0}}, 0, ob::PairBand::infrared, right));
+  ASSERT_TRUE(r.ok()) << r.ground.message;
+  EXPECT_NEAR(r.ground.plane.height_m, kHeight, 0.02);
+  ASSERT_EQ(r.obstacles.size(), 1u);
+  EXPECT_NEAR(r.obstacles[0].distance_m, std::hypot(8.0, 5.5), 0.02 * std::hypot(8.0, 5.5));
+  EXPECT_EQ(r.obstacles[0].bands, ob::kInfraredBit);
+}
+
+TEST(ObstacleDetector, ALowKerbIsNotAnObstacle) {
+  // 0.1 m high: below min_obstacle_height_m.
+  const ob::ObstacleDetector d = synthetic_detector();
+  const ob::PairObstacles r =
+      d.from_disparity(ob::PairBand::visible, synthetic_disparity(d, {{8.0, -3.0, 3.0, 0.1}}));
+  ASSERT_TRUE(r.ok());
+  EXPECT_TRUE(r.obstacles.empty());
+}
+
+TEST(ObstacleDetector, AWallOrTheSkyGiveAStatusAndNoObstacle) {
+  const ob::ObstacleDetector d = synthetic_detector();
+  const ob::PairObstacles wall =
+      d.from_disparity(ob::PairBand::visible, synthetic_disparity(d, {}, 3.0));
+  EXPECT_EQ(wall.ground.status, ob::GroundStatus::no_ground) << wall.ground.message;
+  EXPECT_TRUE(wall.obstacles.empty());
+  EXPECT_TRUE(std::all_of(wall.free_space_m.begin(), wall.free_space_m.end(),
+                          [](float v) { return std::isnan(v); }));
+  const auto& r = d.reduced_grid(ob::PairBand::visible);
+  const ob::PairObstacles sky =
+      d.from_disparity(ob::PairBand::visible, cv::Mat(r.height, r.width, CV_32F, cv::Scalar(NAN)));
+  EXPECT_EQ(sky.ground.status, ob::GroundStatus::no_disparity);
+  EXPECT_TRUE(sky.obstacles.empty());
+  const ob::ObstacleResult combined = d.combine({wall, sky});
+  EXPECT_FALSE(combined.ok());
+  EXPECT_TRUE(combined.obstacles.empty());
+}
+
+TEST(ObstacleDetector, BothPairsSeeingOneObstacleGiveOne) {
+  const ob::ObstacleDetector d = synthetic_detector();
+  ob::PairObstacles visible =
+      d.from_disparity(ob::PairBand::visible, synthetic_disparity(d, {{10.0, -0.5, 0.5, 1.0}}));
+  ASSERT_EQ(visible.obstacles.size(), 1u);
+  ob::PairObstacles infrared = visible;  // the same obstacle, as the other pair measured it
+  infrared.band = ob::PairBand::infrared;
+  infrared.obstacles[0].bands = ob::kInfraredBit;
+  infrared.obstacles[0].distance_m += 0.1;
+  const ob::ObstacleResult r = d.combine({visible, infrared});
+  ASSERT_EQ(r.obstacles.size(), 1u);
+  EXPECT_EQ(r.obstacles[0].bands, ob::kVisibleBit | ob::kInfraredBit);
+  EXPECT_NEAR(r.obstacles[0].distance_m, visible.obstacles[0].distance_m + 0.05, 1e-6);
+  EXPECT_LT(r.obstacles[0].sigma_m, visible.obstacles[0].sigma_m);
+}
+
+TEST(ObstacleDetector, APairWithoutGroundTakesTheOthersWhenAskedTo) {
+  // Two pairs on one grid; the infrared sees only the box (no texture on its road).
+  const cam::RectifiedIntrinsics g = synthetic_grid();
+  const rg::RangingGeometry pair{cam::RectifiedCamera(g), kBaseline, Eigen::Isometry3d::Identity()};
+  for (const bool share : {false, true}) {
+    ob::ObstacleOptions options;
+    options.share_ground = share;
+    const ob::ObstacleDetector d(g, {{ob::PairBand::visible, pair}, {ob::PairBand::infrared, pair}},
+                                 Eigen::Isometry3d::Identity(), ob::GroundPrior{kHeight, 0.0, 0.0},
+                                 options);
+    const Face box{9.0, -0.5, 0.5, 1.2};
+    const cv::Mat visible = synthetic_disparity(d, {box});
+    cv::Mat infrared = synthetic_disparity(d, {box});
+    infrared.setTo(NAN, synthetic_disparity(d, {}) == infrared);  // only the box
+    const ob::ObstacleResult r =
+        d.from_disparities({{ob::PairBand::visible, visible}, {ob::PairBand::infrared, infrared}});
+    ASSERT_EQ(r.pairs.size(), 2u);
+    EXPECT_TRUE(r.pairs[0].ok());
+    EXPECT_EQ(r.pairs[1].ok(), share) << r.pairs[1].ground.message;
+    EXPECT_EQ(r.pairs[1].ground_from_other, share);
+    ASSERT_EQ(r.obstacles.size(), 1u);
+    EXPECT_EQ(r.obstacles[0].bands, share ? ob::kVisibleBit | ob::kInfraredBit : ob::kVisibleBit);
+    EXPECT_NEAR(r.obstacles[0].distance_m, 9.0, 0.2);
+  }
+}
+
+TEST(ObstacleDetector, BadInputIsNamed) {
+  const ob::ObstacleDetector d = synthetic_detector();
+  EXPECT_THROW(d.from_disparity(ob::PairBand::visible, cv::Mat(10, 10, CV_32F)),
+               std::invalid_argument);
+  EXPECT_THROW(d.from_disparity(ob::PairBand::infrared, synthetic_disparity(d, {})),
+               std::invalid_argument);  // not set up
+  const cv::Mat wrong(100, 100, CV_8UC1, cv::Scalar(0));
+  EXPECT_THROW(d.detect_pair(ob::PairBand::visible, wrong, wrong), std::invalid_argument);
+  ob::ObstacleOptions zero;
+  zero.reduction = 0;
+  EXPECT_THROW(synthetic_detector(zero), std::invalid_argument);
+}
+
+TEST(DenseDisparity, FindsAShiftedTexture) {
+  cv::Mat noise(120, 200, CV_32F);
+  cv::RNG rng(3);
+  rng.fill(noise, cv::RNG::UNIFORM, 0, 255);
+  cv::GaussianBlur(noise, noise, cv::Size(0, 0), 1.0);
+  cv::Mat left, right;
+  noise.convertTo(left, CV_8U);
+  // The right eye sees every point 6.5 px further left.
+  const cv::Mat shift = (cv::Mat_<double>(2, 3) << 1, 0, -6.5, 0, 1, 0);
+  cv::warpAffine(noise, right, shift, noise.size(), cv::INTER_CUBIC, cv::BORDER_REFLECT);
+  right.convertTo(right, CV_8U);
+  for (ob::DenseMethod method : {ob::DenseMethod::block_matching, ob::DenseMethod::semi_global}) {
+    ob::DenseOptions options;
+    options.method = method;
+    const cv::Mat d = ob::dense_disparity(left, right, 20, options);
+    std::vector<float> valid;
+    for (int y = 10; y < d.rows - 10; ++y)
+      for (int x = 40; x < d.cols - 10; ++x)
+        if (std::isfinite(d.at<float>(y, x))) valid.push_back(d.at<float>(y, x));
+    ASSERT_GT(valid.size(), 5000u) << ob::method_name(method);
+    std::nth_element(valid.begin(), valid.begin() + valid.size() / 2, valid.end());
+    EXPECT_NEAR(valid[valid.size() / 2], 6.5, 0.2) << ob::method_name(method);
+  }
+  EXPECT_THROW(ob::dense_disparity(left, right(cv::Rect(0, 0, 100, 100)), 20),
+               std::invalid_argument);
+  EXPECT_THROW(ob::dense_disparity(cv::Mat(10, 10, CV_16UC1), right, 20), std::invalid_argument);
+  EXPECT_THROW(ob::parse_dense_method("surf"), std::invalid_argument);
+}
+
+// The simulated street (frame 0) through the pipeline's rectification: the visible pair finds
+// the ground at the rig's height and the standing person (15 m) and the near pole (10 m) as
+// obstacles at their distances; the empty road (no targets, no walls) gives none there.
+TEST(ObstacleDetectorOnSimulatedStreet, FindsTheGroundThePersonAndThePole) {
+  namespace pl = thermovis::pipeline;
+  namespace sim = thermovis::sim;
+  const auto rig = thermovis::runtime::load_rig(thermovis::runtime::default_rig_path());
+  const sim::Scene scene =
+      thermovis::runtime::load_scene(thermovis::runtime::shipped_scene_path("street"));
+  const sim::SimulatedRig simulated(rig, scene, 1);
+  pl::CapturePipeline pipeline(rig);
+  const pl::PipelineGeometry& g = pipeline.geometry();
+  const ob::ObstacleDetector d(g.grid, {{ob::PairBand::visible, g.ranging(pl::Band::visible)}},
+                               g.T_ref_reporting, ob::GroundPrior{scene.camera_height_m, 0.0, 0.0});
+  sim::FrameSet frames = simulated.allocate();
+  simulated.render(0, frames);
+  const pl::GridCapture c =
+      pipeline.rectify({frames[sim::Slot::visible_left], frames[sim::Slot::visible_right],
+                        frames[sim::Slot::infrared_left], frames[sim::Slot::infrared_right]});
+  const ob::PairObstacles r = d.detect_pair(ob::PairBand::visible, c.grey_left, c.grey_right);
+  ASSERT_TRUE(r.ok()) << r.ground.message;
+  EXPECT_NEAR(r.ground.plane.height_m, scene.camera_height_m, 0.05);
+  for (const sim::TargetTruth& t : simulated.truth(0)) {
+    if (t.id != "standing" && t.id != "pole_a") continue;
+    const cv::Rect truth_box = pl::points_box_on_grid(g, pl::Band::visible, t.surface_points_m);
+    double nearest = 1e9;
+    for (const Eigen::Vector3d& p : t.surface_points_m)
+      nearest = std::min(nearest, std::hypot(p.x(), p.z()));
+    const ob::Obstacle* found = nullptr;
+    for (const ob::Obstacle& o : r.obstacles) {
+      if ((o.box & truth_box).area() > 0 &&
+          (found == nullptr ||
+           std::abs(o.distance_m - nearest) < std::abs(found->distance_m - nearest))) {
+        found = &o;
+      }
+    }
+    ASSERT_NE(found, nullptr) << t.id << " at " << nearest << " m, box " << truth_box;
+    EXPECT_NEAR(found->distance_m, nearest, 0.06 * nearest) << t.id;
+  }
+}
+
+TEST(DenseDisparity, BadPixelsAgainstATruth) {
+  // Four pixels with a truth: one exact, one 1.5 px off, one 3 px off, one without a disparity;
+  // a fifth without a truth is not counted.
+  const cv::Mat truth = (cv::Mat_<float>(1, 5) << 10, 10, 10, 10, INFINITY);
+  const cv::Mat d = (cv::Mat_<float>(1, 5) << 10, 11.5, 13, NAN, 3);
+  const ob::DenseAccuracy a = ob::evaluate_dense(d, truth);
+  EXPECT_EQ(a.truth_pixels, 4);
+  EXPECT_DOUBLE_EQ(a.valid, 0.75);
+  EXPECT_DOUBLE_EQ(a.bad1, 0.75);
+  EXPECT_DOUBLE_EQ(a.bad2, 0.5);
+  EXPECT_DOUBLE_EQ(a.bad1_valid, 2.0 / 3.0);
+  EXPECT_DOUBLE_EQ(a.bad2_valid, 1.0 / 3.0);
+  EXPECT_THROW(ob::evaluate_dense(d, truth(cv::Rect(0, 0, 4, 1))), std::invalid_argument);
+}
