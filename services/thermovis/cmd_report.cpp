@@ -121,6 +121,11 @@ std::vector<Run> plan(const Options& opt, const fs::path& data, const fs::path& 
     args.insert(args.end(), r.flags.begin(), r.flags.end());
     runs.push_back({"detection", r.set + ": " + r.label, args, ""});
   }
+  // Obstacles from the dense stereo of each pair, against the simulator's truth.
+  for (const std::string scene : {"street", "obstacles"}) {
+    if (q && scene != "street") continue;
+    runs.push_back({"obstacles", scene, {"bench", "obstacles", "--scene", scene, "--json"}, ""});
+  }
   // Board inner corners (columns x rows) and square size of each set: ../shared/data/calib.
   struct Set {
     std::string name, board, square;
@@ -418,12 +423,26 @@ std::string ranging_tables(const std::vector<json>& rows) {
 std::string match_tables(const std::vector<json>& rows) {
   std::string s = table_head({"method", "pairs", "matches/pair", "within 1 px", "within 0.5 px",
                               "mean abs error of those within 1 px", "ms/pair"});
+  std::string dense;
   for (const auto& r : rows) {
+    if (r.contains("dense_method")) {  // a dense method's row: bad pixels against the truth
+      dense += table_row({r.at("dense_method").get<std::string>(), percent(r.at("bad1"), 1),
+                          percent(r.at("bad2"), 1), percent(r.at("valid"), 1),
+                          percent(r.at("bad1_valid"), 1), fixed(r.at("ms_per_pair"), 1)});
+      continue;
+    }
     s += table_row({r.at("method").get<std::string>(), std::to_string(r.at("scenes").get<int>()),
                     fixed(r.at("matches_per_pair"), 0), percent(r.at("within_1px"), 1),
                     percent(r.at("within_half_px"), 1),
                     fixed(r.at("mean_abs_error_px_inliers"), 3) + " px",
                     fixed(r.at("ms_per_pair"), 1)});
+  }
+  if (!dense.empty()) {
+    s += "\nDense disparity (the obstacle stage's methods), every pixel with a ground truth; one "
+         "without a disparity counts as bad:\n\n" +
+         table_head({"dense method", "bad-1", "bad-2", "pixels with a disparity", "bad-1 of those",
+                     "ms/pair"}) +
+         dense;
   }
   return s;
 }
@@ -473,6 +492,34 @@ std::string detection_tables(const std::vector<std::pair<std::string, json>>& ru
                          : "-");
     }
     line.push_back(fixed(r.at("ms_per_image"), 1));
+    s += table_row(line);
+  }
+  return s;
+}
+
+// One row per scene: found / in view and median relative error per distance band, recall to
+// the bench's limit, false obstacles on the empty road, CPU per capture.
+std::string obstacle_tables(const std::vector<std::pair<std::string, json>>& runs) {
+  std::vector<std::string> head{"scene (band, method)"};
+  for (const auto& d : runs.front().second.at("per_distance"))
+    head.push_back(d.at("distance_m").get<std::string>() + " m");
+  for (const char* h : {"recall", "false per 100 empty frames", "CPU ms per capture (p95)"})
+    head.emplace_back(h);
+  std::string s =
+      "Per distance: found / in view, median |error| in % of the distance.\n\n" + table_head(head);
+  for (const auto& [label, r] : runs) {
+    std::vector<std::string> line{label + " (" + r.at("band").get<std::string>() + ", " +
+                                  r.at("method").get<std::string>() + ")"};
+    for (const auto& d : r.at("per_distance")) {
+      const int truths = d.at("truths").get<int>();
+      const int found = d.at("found").get<int>();
+      line.push_back(std::to_string(found) + "/" + std::to_string(truths) +
+                     (found > 0 ? ", " + fixed(d.at("median_rel_error_pct"), 1) + " %" : ""));
+    }
+    line.push_back(fixed(r.at("recall_pct"), 1) + " % to " + fixed(r.at("recall_up_to_m"), 0) +
+                   " m");
+    line.push_back(fixed(r.at("false_obstacles_per_100_frames"), 0));
+    line.push_back(fixed(r.at("cpu_ms_median"), 1) + " (" + fixed(r.at("cpu_ms_p95"), 1) + ")");
     s += table_row(line);
   }
   return s;
@@ -544,6 +591,7 @@ const std::vector<Section> kSections{
     {"fusion", "Infrared/visible fusion on VIFB"},
     {"detection",
      "People on real annotated frames (the evaluation frames of each set, never trained on)"},
+    {"obstacles", "Obstacles from dense stereo on the simulated rig"},
     {"calibration", "Taylor (OCamCalib) calibration of the sample sets (every image of a set)"},
     {"pipeline", "The whole pipeline (50 Hz, full-resolution simulated frames)"}};
 
@@ -625,10 +673,10 @@ std::string format_report(const fs::path& dir) {
       if (section.kind == "match") md << match_tables(runs.front().second);
       if (section.kind == "fusion") md << fusion_tables(runs.front().second);
       if (section.kind == "pipeline") md << pipeline_tables(runs.front().second);
-      if (section.kind == "detection") {
+      if (section.kind == "detection" || section.kind == "obstacles") {
         std::vector<std::pair<std::string, json>> sets;
         for (const auto& [run, rows] : runs) sets.emplace_back(run.at("label"), rows.front());
-        md << detection_tables(sets);
+        md << (section.kind == "detection" ? detection_tables(sets) : obstacle_tables(sets));
       }
       if (section.kind == "calibration") {
         std::vector<std::pair<std::string, json>> sets;

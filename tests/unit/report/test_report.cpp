@@ -72,6 +72,9 @@ fs::path canned_runs(const std::string& name) {
         R"({"method":"ncc","subpixel":true,"scenes":5,"matches_per_pair":1210.4,)"
         R"("within_1px":0.9163,"within_half_px":0.8531,"mean_abs_error_px_inliers":0.2468,)"
         R"("ms_per_pair":33.27,"per_scene":[]})"
+        "\n"
+        R"({"dense_method":"bm","bad1":0.4105,"bad2":0.3933,"valid":0.6504,"bad1_valid":0.0936,)"
+        R"("ms_per_pair":11.28,"scenes":5,"per_scene":[]})"
         "\n");
   const std::string mono =
       R"({"rms_2d_px":0.40134,"linear_rms_2d_px":2.5,"images_used":15,"images_total":15,)"
@@ -126,6 +129,8 @@ TEST(Report, FormatsCannedRowsIntoTablesNamingTheirCommands) {
   EXPECT_NE(md.find("`thermovis calibrate --images D/calib/ocamcalib_ladybug --json`"),
             std::string::npos)
       << md;
+  // Dense methods get their own table under the sparse ones.
+  EXPECT_NE(md.find("| bm | 41.0 % | 39.3 % | 65.0 % | 9.4 % | 11.3 |\n"), std::string::npos) << md;
   // Detection: one row per set and detector; a height bucket without people shows "-".
   EXPECT_NE(md.find("| llvip_dev: infrared classifier | 21 | 91 | 0.575 | 0.374 | 0.747 | - | - | "
                     "0.597 (91) | 34.3 |\n"),
