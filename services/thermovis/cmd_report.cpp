@@ -121,6 +121,19 @@ std::vector<Run> plan(const Options& opt, const fs::path& data, const fs::path& 
     args.insert(args.end(), r.flags.begin(), r.flags.end());
     runs.push_back({"detection", r.set + ": " + r.label, args, ""});
   }
+  // The simulated scenes on the pipeline grid (IoU 0.3: a far person's silhouette box is a few
+  // pixels wide, one pixel off is IoU 0.5 lost).
+  for (const std::string scene : {"paper", "night", "street"}) {
+    if (q) continue;
+    for (const bool blobs : {true, false}) {
+      std::vector<std::string> args{"detect-eval", "--scene", scene, "--iou", "0.3", "--json"};
+      if (blobs) args.insert(args.end(), {"--ir-detector", "warm-blob"});
+      runs.push_back(
+          {"detection",
+           "simulated " + scene + " (IoU 0.3): infrared " + (blobs ? "warm blobs" : "classifier"),
+           args, ""});
+    }
+  }
   // Obstacles from the dense stereo of each pair, against the simulator's truth.
   for (const std::string scene : {"street", "obstacles"}) {
     if (q && scene != "street") continue;
