@@ -10,6 +10,7 @@
 #include "thermovis/node/frame_codec.hpp"
 #include "thermovis/node/health.hpp"
 #include "thermovis/runtime/rig_io.hpp"
+#include "thermovis/runtime/scene_io.hpp"
 #include "thermovis/transport/qos.hpp"
 #include "thermovis/transport/shared_memory.hpp"
 #include "thermovis/transport/topics.hpp"
@@ -192,8 +193,9 @@ LatencySummary Supervisor::summary() const {
 
 std::map<std::string, std::string> default_vars(int domain, const std::string& profile,
                                                 const std::string& scene) {
-  const std::filesystem::path scene_path =
-      scene.empty() ? runtime::shipped_file("scenes/paper.yaml") : std::filesystem::path(scene);
+  const std::filesystem::path scene_path = scene.empty()
+                                               ? runtime::shipped_file("scenes/paper.yaml")
+                                               : runtime::scene_argument_path(scene);
   if (!std::filesystem::exists(scene_path))
     throw std::runtime_error("scene file " + scene_path.string() + " does not exist");
   return {{"bin", std::filesystem::canonical("/proc/self/exe").parent_path().string()},

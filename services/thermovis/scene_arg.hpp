@@ -9,10 +9,7 @@
 namespace thermovis::cli {
 
 inline std::filesystem::path resolve_scene(const std::string& arg) {
-  namespace fs = std::filesystem;
-  if (fs::exists(arg) || arg.find('/') != std::string::npos || fs::path(arg).has_extension())
-    return arg;
-  return runtime::shipped_scene_path(arg);
+  return runtime::scene_argument_path(arg);
 }
 
 }  // namespace thermovis::cli

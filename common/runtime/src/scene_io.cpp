@@ -260,4 +260,11 @@ std::filesystem::path shipped_scene_path(const std::string& name) {
                     candidates[candidates.size() - 2].parent_path().string() + ")");
 }
 
+std::filesystem::path scene_argument_path(const std::string& arg) {
+  namespace fs = std::filesystem;
+  if (fs::exists(arg) || arg.find('/') != std::string::npos || fs::path(arg).has_extension())
+    return arg;
+  return shipped_scene_path(arg);
+}
+
 }  // namespace thermovis::runtime

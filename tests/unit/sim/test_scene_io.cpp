@@ -160,3 +160,19 @@ TEST(SceneIo, OtherMistakesAreClear) {
 }
 
 }  // namespace
+
+// A --scene argument is a shipped scene's name or a path: a name finds deploy/scenes/<name>.yaml,
+// anything that looks like a path is kept as given (its errors come when it is read), an
+// unknown name is named.
+TEST(SceneIo, SceneArgumentIsANameOrAPath) {
+  using thermovis::runtime::scene_argument_path;
+  EXPECT_EQ(scene_argument_path("street"), thermovis::runtime::shipped_scene_path("street"));
+  EXPECT_EQ(scene_argument_path("my/street.yaml"), std::filesystem::path("my/street.yaml"));
+  EXPECT_EQ(scene_argument_path("mine.yaml"), std::filesystem::path("mine.yaml"));
+  try {
+    scene_argument_path("no_such_scene");
+    ADD_FAILURE() << "an unknown scene name was accepted";
+  } catch (const ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("no_such_scene"), std::string::npos) << e.what();
+  }
+}

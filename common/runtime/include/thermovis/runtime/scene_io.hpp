@@ -15,5 +15,8 @@ sim::Scene load_scene(const std::filesystem::path& path);
 // A scene shipped with the project (deploy/scenes/<name>.yaml), located from $THERMOVIS_SCENES,
 // then the source tree, then the installed share folder.
 std::filesystem::path shipped_scene_path(const std::string& name);
+// A --scene argument: a path as given when it exists or looks like one (a '/' or an
+// extension), else the name of a shipped scene (shipped_scene_path, same error).
+std::filesystem::path scene_argument_path(const std::string& arg);
 
 }  // namespace thermovis::runtime
