@@ -6,7 +6,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 bin_dir=${1:-build/bin}
-for exe in thermovis-bridge thermovis-rectify-fuse thermovis-detect thermovis-match thermovis-range thermovis; do
+for exe in thermovis-bridge thermovis-rectify-fuse thermovis-detect thermovis-match thermovis-range thermovis-obstacles thermovis; do
   [ -x "$bin_dir/$exe" ] || { echo "install.sh: $bin_dir/$exe is missing (build first)" >&2; exit 1; }
 done
 install -d /opt/thermovis/bin /opt/thermovis/deploy /etc/thermovis

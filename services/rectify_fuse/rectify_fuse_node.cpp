@@ -24,10 +24,10 @@ transport::TopicQos raw_qos(std::chrono::nanoseconds deadline) {
 }
 
 // Writers of grid frames: their pools hold a slot per reader that may keep one sample loaned
-// (rectified infrared: detect, match, thermovis-view, and one more DDS application). With
-// fewer slots than readers a third reader (the viewer) left no slot free and stalled this
+// (rectified infrared: detect, match, obstacles, thermovis-view, and one more DDS application).
+// With fewer slots than readers a third reader (the viewer) left no slot free and stalled this
 // service ("every pool slot is loaned or unread").
-constexpr std::int32_t kGridFrameReaders = 4;
+constexpr std::int32_t kGridFrameReaders = 5;
 
 transport::TopicQos grid_qos(std::chrono::nanoseconds deadline) {
   return transport::frame_topic_qos(deadline, 2, kGridFrameReaders);

@@ -1,5 +1,5 @@
-// thermovis-ros2: the fused image, ranges and detections for ROS 2 (rt/thermovis/...), published
-// only while a ROS 2 node subscribes.
+// thermovis-ros2: the fused image, ranges, detections and obstacles for ROS 2 (rt/thermovis/...),
+// published only while a ROS 2 node subscribes.
 #include <CLI/CLI.hpp>
 #include <iostream>
 
@@ -37,7 +37,8 @@ int main(int argc, char** argv) {
     bridge.run();
     const auto& s = bridge.stats();
     std::cerr << app.common.service << ": published " << s.images << " images, " << s.ranges
-              << " range arrays, " << s.detections << " detection arrays; dropped unsubscribed "
-              << s.unsubscribed << ", overwritten " << s.overwritten << ", bad " << s.bad << "\n";
+              << " range arrays, " << s.detections << " detection arrays, " << s.obstacles
+              << " obstacle arrays; dropped unsubscribed " << s.unsubscribed << ", overwritten "
+              << s.overwritten << ", bad " << s.bad << "\n";
   });
 }

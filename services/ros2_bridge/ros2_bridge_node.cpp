@@ -44,13 +44,16 @@ Ros2BridgeNode::Ros2BridgeNode(transport::Participant& pipeline, transport::Part
       fused_in_(pipeline, topics::kFused, fused_reader_qos()),
       ranges_in_(pipeline, topics::kRanges, transport::event_topic_qos()),
       detections_in_(pipeline, topics::kDetections, transport::event_topic_qos()),
+      obstacles_in_(pipeline, topics::kObstacles, transport::event_topic_qos()),
       image_out_(ros, topics::kRos2FusedImage, transport::event_topic_qos(config.image_depth)),
       ranges_out_(ros, topics::kRos2Ranges, transport::event_topic_qos(config.event_depth)),
       detections_out_(ros, topics::kRos2Detections, transport::event_topic_qos(config.event_depth)),
+      obstacles_out_(ros, topics::kRos2Obstacles, transport::event_topic_qos(config.event_depth)),
       health_(pipeline, service_name, [this] {
         return std::vector<transport::TopicCountersSnapshot>{
-            fused_in_.counters(),  ranges_in_.counters(),  detections_in_.counters(),
-            image_out_.counters(), ranges_out_.counters(), detections_out_.counters()};
+            fused_in_.counters(),       ranges_in_.counters(),    detections_in_.counters(),
+            obstacles_in_.counters(),   image_out_.counters(),    ranges_out_.counters(),
+            detections_out_.counters(), obstacles_out_.counters()};
       }) {
   health_.set_state(HEALTH_STARTING, "waiting for ROS 2 subscribers and pipeline data");
 }
@@ -64,6 +67,7 @@ void Ros2BridgeNode::run() {
     forward_fused();
     forward_ranges();
     forward_detections();
+    forward_obstacles();
   }
   health_.set_state(HEALTH_STOPPING, "published " + std::to_string(stats_.images) + " images, " +
                                          std::to_string(stats_.ranges) + " range arrays");
@@ -101,6 +105,11 @@ void Ros2BridgeNode::forward_ranges() {
 
 void Ros2BridgeNode::forward_detections() {
   forward(detections_in_, detections_out_, config_.image_frame_id, stats_.detections,
+          stats_.unsubscribed);
+}
+
+void Ros2BridgeNode::forward_obstacles() {
+  forward(obstacles_in_, obstacles_out_, config_.ranges_frame_id, stats_.obstacles,
           stats_.unsubscribed);
 }
 

@@ -1,7 +1,8 @@
 #pragma once
 // thermovis-ros2: republishes the pipeline for ROS 2 on a participant of its own (UDP by
 // default): the left eye of thermovis/fused as sensor_msgs/Image on rt/thermovis/fused/image,
-// thermovis/ranges and thermovis/detections as thermovis_msgs arrays (idl/ros2/), QoS as a ROS 2
+// thermovis/ranges, thermovis/detections and thermovis/obstacles as thermovis_msgs arrays
+// (idl/ros2/), QoS as a ROS 2
 // publisher's default (RELIABLE, VOLATILE, KEEP_LAST), which ROS 2's reliable and best-effort
 // ("sensor data") subscriptions both match.
 //
@@ -35,6 +36,7 @@ struct Ros2BridgeStats {
   std::uint64_t images = 0;        // images converted and published
   std::uint64_t ranges = 0;        // range arrays converted and published
   std::uint64_t detections = 0;    // detection arrays converted and published
+  std::uint64_t obstacles = 0;     // obstacle arrays converted and published
   std::uint64_t unsubscribed = 0;  // input samples dropped because no ROS reader was matched
   std::uint64_t overwritten = 0;   // fused frames reused by their writer while copied (dropped)
   std::uint64_t bad = 0;           // corrupt inputs
@@ -53,14 +55,17 @@ class Ros2BridgeNode {
   void forward_fused();
   void forward_ranges();
   void forward_detections();
+  void forward_obstacles();
 
   Ros2BridgeConfig config_;
   transport::Reader<GridStereoFrame> fused_in_;
   transport::Reader<RangeArray> ranges_in_;
   transport::Reader<DetectionArray> detections_in_;
+  transport::Reader<ObstacleArray> obstacles_in_;
   transport::Writer<sensor_msgs::msg::dds_::Image_> image_out_;
   transport::Writer<thermovis_msgs::msg::dds_::RangeArray_> ranges_out_;
   transport::Writer<thermovis_msgs::msg::dds_::DetectionArray_> detections_out_;
+  transport::Writer<thermovis_msgs::msg::dds_::ObstacleArray_> obstacles_out_;
   node::HealthReporter health_;
   sensor_msgs::msg::dds_::Image_ image_;  // reused: its data buffer keeps its size
   Ros2BridgeStats stats_;

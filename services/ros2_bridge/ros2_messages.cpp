@@ -151,4 +151,44 @@ msgs::DetectionArray_ to_ros(const DetectionArray& detections, const std::string
   return out;
 }
 
+msgs::ObstacleArray_ to_ros(const ObstacleArray& obstacles, const std::string& frame_id) {
+  msgs::ObstacleArray_ out;
+  out.header_(header(obstacles.capture_time_ns(), frame_id));
+  out.frame_seq_(obstacles.frame_seq());
+  const auto ground = [](GroundStatus g) {
+    return static_cast<std::uint8_t>(g <= GROUND_NO_GROUND ? g : GROUND_NOT_SEARCHED);
+  };
+  out.visible_ground_(ground(obstacles.visible_ground()));
+  out.infrared_ground_(ground(obstacles.infrared_ground()));
+  out.ground_normal_(obstacles.ground_normal());
+  out.ground_height_m_(obstacles.ground_height_m());
+  out.obstacles_().reserve(obstacles.obstacles().size());
+  for (const Obstacle& o : obstacles.obstacles()) {
+    msgs::Obstacle_ t;
+    t.obstacle_id_(o.obstacle_id());
+    t.label_(o.label().to_string());
+    t.has_target_(o.has_target());
+    t.target_id_(o.target_id());
+    t.distance_m_(o.distance_m());
+    t.sigma_m_(o.sigma_m());
+    t.x_m_(o.x_m());
+    t.y_m_(o.y_m());
+    t.z_m_(o.z_m());
+    t.width_m_(o.width_m());
+    t.height_m_(o.height_m());
+    t.depth_m_(o.depth_m());
+    t.box_(to_ros(o.box()));
+    t.band_(static_cast<std::uint8_t>(o.band() <= BAND_FUSED ? o.band() : BAND_UNKNOWN));
+    t.stixels_(o.stixels());
+    out.obstacles_().push_back(std::move(t));
+  }
+  out.free_space_m_().assign(obstacles.free_space_m().begin(), obstacles.free_space_m().end());
+  out.free_space_row_().assign(obstacles.free_space_row().begin(),
+                               obstacles.free_space_row().end());
+  out.max_distance_m_(obstacles.max_distance_m());
+  out.latency_ms_(
+      static_cast<float>(transport::latency_ms(obstacles.stamps(), obstacles.capture_time_ns())));
+  return out;
+}
+
 }  // namespace thermovis::ros2_bridge

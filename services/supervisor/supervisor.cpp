@@ -29,11 +29,10 @@ void log_event(const std::string& service, const std::string& event) {
   std::cerr << "thermovis-supervisor: " << service << ": " << event << std::endl;
 }
 
-constexpr util::EnumName<Stage> kStageNames[] = {{STAGE_BRIDGE, "bridge"},
-                                                 {STAGE_RECTIFY_FUSE, "rectify-fuse"},
-                                                 {STAGE_DETECT, "detect"},
-                                                 {STAGE_MATCH, "match"},
-                                                 {STAGE_RANGE, "range"}};
+constexpr util::EnumName<Stage> kStageNames[] = {
+    {STAGE_BRIDGE, "bridge"}, {STAGE_RECTIFY_FUSE, "rectify-fuse"},
+    {STAGE_DETECT, "detect"}, {STAGE_MATCH, "match"},
+    {STAGE_RANGE, "range"},   {STAGE_OBSTACLES, "obstacles"}};
 
 }  // namespace
 

@@ -51,7 +51,8 @@ struct Options {
 const std::vector<std::string>& default_topics() {
   namespace t = tv::transport::topics;
   static const std::vector<std::string> names{t::kVisibleFrames, t::kInfraredFrames, t::kDetections,
-                                              t::kMatches,       t::kRanges,         t::kTiming};
+                                              t::kMatches,       t::kRanges,         t::kObstacles,
+                                              t::kTiming};
   return names;
 }
 

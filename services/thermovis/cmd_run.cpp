@@ -1,5 +1,6 @@
-// thermovis run: the whole pipeline on the simulated rig, one line per range with its truth and
-// error, and the latency summary at the end. --view adds the live display (thermovis-view).
+// thermovis run: the whole pipeline on the simulated rig, one line per range and per obstacle with
+// its truth and error, and the latency summary at the end. --view adds the live display
+// (thermovis-view).
 #include <chrono>
 #include <iostream>
 #include <memory>
@@ -45,6 +46,13 @@ int run_pipeline(Options& opt) {
                              : thermovis::cli::range_line(checked))
                 << std::endl;
     }
+    for (const auto& checked : session.step_obstacles()) {
+      if (opt.json) {
+        std::cout << thermovis::cli::obstacle_json(checked) << std::endl;
+      } else if (!checked.obstacle.has_target()) {  // a ranged target has its range line
+        std::cout << thermovis::cli::obstacle_line(checked) << std::endl;
+      }
+    }
     if (opt.seconds > 0 &&
         std::chrono::steady_clock::now() - start > std::chrono::duration<double>(opt.seconds))
       break;
@@ -55,11 +63,13 @@ int run_pipeline(Options& opt) {
   session.stop();
   const auto latency = session.latency();
   const auto errors = session.errors();
+  const auto obstacles = session.obstacle_errors();
   if (opt.json) {
-    std::cout << thermovis::cli::summary_json(latency, errors).dump() << std::endl;
+    std::cout << thermovis::cli::summary_json(latency, errors, &obstacles).dump() << std::endl;
   } else {
     std::cout << thermovis::supervisor::summary_text(latency, session.deadline_ms())
-              << thermovis::cli::errors_text(errors);
+              << thermovis::cli::errors_text(errors)
+              << thermovis::cli::obstacle_errors_text(obstacles);
   }
   return latency.frames > 0 ? 0 : 2;
 }
@@ -72,8 +82,9 @@ THERMOVIS_COMMAND("run", "the whole pipeline on the simulated rig: live ranges, 
                     app.add_option("--seconds", opt->seconds, "run this long (0: until Ctrl-C)")
                         ->capture_default_str()
                         ->multi_option_policy(CLI::MultiOptionPolicy::TakeLast);
-                    app.add_flag("--json", opt->json,
-                                 "ranges as JSON lines, the summary as the last line");
+                    app.add_flag(
+                        "--json", opt->json,
+                        "ranges and obstacles as JSON lines, the summary as the last line");
                     app.add_flag("--view", opt->view,
                                  "also start the live display (thermovis-view) and print its URL");
                     app.add_option("--view-port", opt->view_port, "HTTP port of the display")

@@ -20,15 +20,23 @@
 #include "thermovis/node/frame_codec.hpp"
 #include "thermovis/node/geometry_topic.hpp"
 #include "thermovis/node/service.hpp"
+#include "thermovis/obstacle/ground.hpp"
 #include "thermovis/process/manifest_io.hpp"
 #include "thermovis/runtime/rig_io.hpp"
 #include "thermovis/runtime/scene_io.hpp"
 #include "thermovis/transport/clock.hpp"
 #include "thermovis/transport/participant.hpp"
+#include "thermovis/transport/qos.hpp"
+#include "thermovis/transport/reader.hpp"
 #include "thermovis/transport/stamps.hpp"
+#include "thermovis/transport/topics.hpp"
 
 namespace thermovis::cli {
 namespace {
+
+// An obstacle belongs to a simulated target on its line of sight at its distance within this.
+constexpr double kObstacleTruthToleranceM = 0.5;
+constexpr double kObstacleTruthToleranceShare = 0.15;
 
 double wall_seconds() {
   return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
@@ -137,6 +145,8 @@ PipelineSession::PipelineSession(const SessionOptions& options) : options_(optio
   common.profile = profile;
   participant_ = node::make_participant(common);
   geometry_ = std::make_unique<node::GeometrySubscriber>(*participant_);
+  obstacles_in_ = std::make_unique<transport::Reader<ObstacleArray>>(
+      *participant_, transport::topics::kObstacles, transport::event_topic_qos(64));
   const auto manifest =
       process::load_manifest(options.manifest.empty() ? runtime::shipped_file("pipeline.yaml")
                                                       : std::filesystem::path(options.manifest));
@@ -220,11 +230,63 @@ std::vector<CheckedRange> PipelineSession::step() {
   return out;
 }
 
+std::vector<CheckedObstacle> PipelineSession::step_obstacles() {
+  std::vector<CheckedObstacle> out;
+  auto arrays = obstacles_in_->take();
+  if (arrays.size() == 0) return out;
+  const auto g = geometry();
+  if (!g) return out;  // no truth without the reporting camera's pose
+  // The simulated rig is level: the ground's normal in the reporting camera's frame.
+  const Eigen::Vector3d down =
+      obstacle::plane_in_frame(obstacle::prior_plane(obstacle::GroundPrior{}), g->T_ref_reporting)
+          .normal;
+  const auto horizontal = [&](const Eigen::Vector3d& p) { return (p - down.dot(p) * down).norm(); };
+  for (std::size_t i = 0; i < arrays.size(); ++i) {
+    const ObstacleArray& array = arrays[i];
+    ++obstacle_frames_;
+    const double latency = transport::latency_ms(array.stamps(), array.capture_time_ns());
+    const std::vector<sim::TargetTruth>& truth = truth_at(array.frame_seq());
+    for (const Obstacle& o : array.obstacles()) {
+      CheckedObstacle c;
+      c.seq = array.frame_seq();
+      c.obstacle = o;
+      c.latency_ms = latency;
+      // The truth distance an entry measures: a target's centre, else its nearest surface.
+      const auto truth_distance = [&](const sim::TargetTruth& t) {
+        if (o.has_target()) return horizontal(t.position_m);
+        double d = 1e300;
+        for (const Eigen::Vector3d& p : t.surface_points_m) d = std::min(d, horizontal(p));
+        return d;
+      };
+      // Of the targets on its line of sight, the one at its distance (within 15 % + 0.5 m, as
+      // `bench obstacles` counts them); one farther off is another object before or behind it.
+      const Eigen::Vector3d at(o.x_m(), o.y_m(), o.z_m());
+      for (const sim::TargetTruth& t : truth) {
+        if (!truth_on_line_of_sight({t}, at)) continue;
+        const double d = truth_distance(t);
+        const double error = o.distance_m() - d;
+        if (std::abs(error) > kObstacleTruthToleranceM + kObstacleTruthToleranceShare * d) continue;
+        if (!c.truth || std::abs(error) < std::abs(c.error_m)) {
+          c.truth = t;
+          c.truth_distance_m = d;
+          c.error_m = error;
+        }
+      }
+      out.push_back(c);
+      checked_obstacles_.push_back(c);
+    }
+  }
+  return out;
+}
+
 void PipelineSession::reset_statistics() {
   step();
+  step_obstacles();
   supervisor_->reset_statistics();
   frames_ = 0;
+  obstacle_frames_ = 0;
   checked_.clear();
+  checked_obstacles_.clear();
   cpu_marks_.mark(supervisor_->services());
 }
 
@@ -309,6 +371,96 @@ RangeErrorSummary PipelineSession::errors() const {
   return s;
 }
 
+ObstacleErrorSummary PipelineSession::obstacle_errors() const {
+  ObstacleErrorSummary s;
+  s.frames = obstacle_frames_;
+  s.obstacles = checked_obstacles_.size();
+  std::vector<double> abs_errors, relative;
+  std::map<std::string, std::pair<std::vector<double>, std::vector<double>>> per;  // truths, errors
+  for (const CheckedObstacle& c : checked_obstacles_) {
+    s.targets += c.obstacle.has_target();
+    if (!c.truth) continue;
+    abs_errors.push_back(std::abs(c.error_m));
+    relative.push_back(std::abs(c.error_m) / c.truth_distance_m);
+    auto& [truths, errors] = per[c.truth->id];
+    truths.push_back(c.truth_distance_m);
+    errors.push_back(c.error_m);
+  }
+  s.matched = abs_errors.size();
+  if (!abs_errors.empty()) {
+    s.median_abs_error_m = metrics::percentile(abs_errors, 50);
+    s.median_abs_relative_error = metrics::percentile(relative, 50);
+  }
+  for (auto& [id, te] : per) {
+    ObstacleErrorSummary::PerTarget t;
+    t.id = id;
+    t.truth_m = metrics::percentile(te.first, 50);
+    t.found = te.second.size();
+    t.median_error_m = metrics::percentile(te.second, 50);
+    s.targets_found.push_back(t);
+  }
+  std::sort(s.targets_found.begin(), s.targets_found.end(),
+            [](const auto& a, const auto& b) { return a.truth_m < b.truth_m; });
+  return s;
+}
+
+std::string obstacle_line(const CheckedObstacle& c) {
+  const Obstacle& o = c.obstacle;
+  std::ostringstream out;
+  out << "frame " << std::setw(6) << c.seq << "  " << std::setw(8) << o.label().to_string() << " #"
+      << std::setw(2) << std::left << o.obstacle_id() << std::right << "  " << std::setw(7)
+      << fixed(o.distance_m(), 2) << " m +- " << fixed(o.sigma_m(), 2) << "  ("
+      << fixed(o.width_m(), 1) << " x " << fixed(o.height_m(), 1) << " m, " << o.stixels()
+      << " stixels)";
+  if (c.truth) {
+    out << "  truth " << std::setw(7) << fixed(c.truth_distance_m, 2) << " m (" << c.truth->id
+        << ")  error " << (c.error_m >= 0 ? "+" : "") << fixed(c.error_m, 2) << " m";
+  } else {
+    out << "  truth: no simulated target in this direction";
+  }
+  out << "  latency " << fixed(c.latency_ms, 1) << " ms";
+  return out.str();
+}
+
+std::string obstacle_json(const CheckedObstacle& c) {
+  const Obstacle& o = c.obstacle;
+  nlohmann::json j{{"kind", "obstacle"},
+                   {"frame_seq", c.seq},
+                   {"obstacle_id", o.obstacle_id()},
+                   {"label", o.label().to_string()},
+                   {"target_id", o.has_target() ? nlohmann::json(o.target_id()) : nlohmann::json()},
+                   {"distance_m", o.distance_m()},
+                   {"sigma_m", o.sigma_m()},
+                   {"position_m", {o.x_m(), o.y_m(), o.z_m()}},
+                   {"extent_m", {o.width_m(), o.height_m(), o.depth_m()}},
+                   {"box", {o.box().x(), o.box().y(), o.box().width(), o.box().height()}},
+                   {"band", o.band()},
+                   {"stixels", o.stixels()},
+                   {"latency_ms", c.latency_ms}};
+  if (c.truth) {
+    j["truth_id"] = c.truth->id;
+    j["truth_distance_m"] = c.truth_distance_m;
+    j["error_m"] = c.error_m;
+  } else {
+    j["truth_id"] = nullptr;
+  }
+  return j.dump();
+}
+
+std::string obstacle_errors_text(const ObstacleErrorSummary& s) {
+  std::ostringstream out;
+  out << "obstacles " << s.obstacles << " in " << s.frames << " results (" << s.targets
+      << " ranged targets), " << s.matched << " on a simulated target; |error| median "
+      << fixed(s.median_abs_error_m, 2) << " m (" << fixed(100.0 * s.median_abs_relative_error, 1)
+      << " %)\n";
+  for (const auto& t : s.targets_found) {
+    out << "  " << std::setw(14) << t.id << "  truth " << std::setw(6) << fixed(t.truth_m, 2)
+        << " m  found " << std::setw(5) << t.found << "  median error "
+        << (t.median_error_m >= 0 ? "+" : "") << fixed(t.median_error_m, 2) << " m\n";
+  }
+  return out.str();
+}
+
 std::string range_line(const CheckedRange& c) {
   const TargetRange& r = c.range;
   std::ostringstream out;
@@ -328,7 +480,8 @@ std::string range_line(const CheckedRange& c) {
 
 std::string range_json(const CheckedRange& c) {
   const TargetRange& r = c.range;
-  nlohmann::json j{{"frame_seq", c.seq},
+  nlohmann::json j{{"kind", "range"},
+                   {"frame_seq", c.seq},
                    {"target_id", r.target_id()},
                    {"label", r.label().to_string()},
                    {"distance_m", r.distance_m()},
@@ -348,8 +501,15 @@ std::string range_json(const CheckedRange& c) {
 }
 
 nlohmann::json summary_json(const supervisor::LatencySummary& latency,
-                            const RangeErrorSummary& errors) {
+                            const RangeErrorSummary& errors,
+                            const ObstacleErrorSummary* obstacles) {
   auto j = nlohmann::json::parse(supervisor::summary_json(latency));
+  if (obstacles != nullptr) {
+    j["obstacle_frames"] = obstacles->frames;
+    j["obstacles"] = obstacles->obstacles;
+    j["obstacles_on_target"] = obstacles->matched;
+    j["obstacle_median_abs_error_m"] = obstacles->median_abs_error_m;
+  }
   j["ranges"] = errors.ranges;
   j["ranges_on_target"] = errors.matched;
   j["mean_abs_error_m"] = errors.mean_abs_error_m;

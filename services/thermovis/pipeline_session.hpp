@@ -13,11 +13,16 @@
 #include <vector>
 
 #include "supervisor.hpp"
+#include "thermovis/obstacles.h"
 #include "thermovis/pipeline/geometry.hpp"
 #include "thermovis/sim/simulated_rig.hpp"
 
 namespace thermovis::node {
 class GeometrySubscriber;
+}
+namespace thermovis::transport {
+template <class T>
+class Reader;
 }
 
 namespace thermovis::cli {
@@ -46,6 +51,37 @@ struct CheckedRange {
   std::optional<sim::TargetTruth> truth;
   double error_m = 0.0;     // distance - truth distance (when truth)
   double latency_ms = 0.0;  // capture to range, from the frame's stamps
+};
+
+// One obstacle of thermovis/obstacles with the simulated target it is, if any: of those on its
+// line of sight (truth_on_line_of_sight, from its position), the one at its distance within
+// 15 % + 0.5 m (as `thermovis bench obstacles` counts them). The truth distance is what the
+// obstacle's distance measures: horizontal, to the target's nearest surface point; for an entry
+// that is a ranged target, to the target's centre. Walls, hedges and the like are no simulated
+// targets: their obstacles have no truth.
+struct CheckedObstacle {
+  std::uint64_t seq = 0;
+  Obstacle obstacle;
+  std::optional<sim::TargetTruth> truth;
+  double truth_distance_m = 0.0;  // when truth
+  double error_m = 0.0;           // distance - truth distance (when truth)
+  double latency_ms = 0.0;        // capture to the obstacle array, from its stamps
+};
+
+struct ObstacleErrorSummary {
+  std::uint64_t frames = 0;     // obstacle arrays received
+  std::uint64_t obstacles = 0;  // obstacles in them
+  std::uint64_t targets = 0;    // of which ranged targets (persons)
+  std::uint64_t matched = 0;    // of which belong to a simulated target
+  double median_abs_error_m = 0.0, median_abs_relative_error = 0.0;
+  // Per simulated target: the truth distance, the obstacles matched to it, their median error.
+  struct PerTarget {
+    std::string id;
+    double truth_m = 0.0;
+    std::uint64_t found = 0;
+    double median_error_m = 0.0;
+  };
+  std::vector<PerTarget> targets_found;
 };
 
 struct RangeErrorSummary {
@@ -107,6 +143,9 @@ class PipelineSession {
   void start();
   // Polls the services and topics; the ranges received since the last call, checked.
   std::vector<CheckedRange> step();
+  // The obstacles received since the last call (thermovis/obstacles), checked.
+  std::vector<CheckedObstacle> step_obstacles();
+  ObstacleErrorSummary obstacle_errors() const;
   // Starts the statistics again (after a warm-up): latency, ranging errors, CPU.
   void reset_statistics();
   void stop();
@@ -141,7 +180,9 @@ class PipelineSession {
   std::unique_ptr<transport::Participant> participant_;
   std::unique_ptr<supervisor::Supervisor> supervisor_;
   std::unique_ptr<node::GeometrySubscriber> geometry_;
-  std::uint64_t frames_ = 0;
+  std::unique_ptr<transport::Reader<ObstacleArray>> obstacles_in_;
+  std::uint64_t frames_ = 0, obstacle_frames_ = 0;
+  std::vector<CheckedObstacle> checked_obstacles_;
   std::vector<CheckedRange> checked_;
   CpuMarks cpu_marks_;
   std::vector<ServiceOutage> outages_;
@@ -154,9 +195,17 @@ class PipelineSession {
 std::string range_line(const CheckedRange& checked);
 std::string range_json(const CheckedRange& checked);
 std::string errors_text(const RangeErrorSummary& errors);
+// The per-obstacle line (entries that are not ranged targets: those have their range line) and
+// its JSON form ("kind": "obstacle"; every entry).
+std::string obstacle_line(const CheckedObstacle& checked);
+std::string obstacle_json(const CheckedObstacle& checked);
+std::string obstacle_errors_text(const ObstacleErrorSummary& errors);
 // The supervisor's latency summary (supervisor::summary_json) with the ranging errors added:
 // ranges, ranges_on_target, mean_abs_error_m, p95_abs_error_m, mean_abs_relative_error.
+// With `obstacles`, also obstacle_frames, obstacles, obstacles_on_target,
+// obstacle_median_abs_error_m.
 nlohmann::json summary_json(const supervisor::LatencySummary& latency,
-                            const RangeErrorSummary& errors);
+                            const RangeErrorSummary& errors,
+                            const ObstacleErrorSummary* obstacles = nullptr);
 
 }  // namespace thermovis::cli

@@ -51,6 +51,8 @@ const std::vector<RecordableTopic>& recordable_topics() {
        transport::event_topic_qos()},
       {topics::kRanges, "thermovis::RangeArray", "thermovis/perception.idl", false,
        transport::event_topic_qos()},
+      {topics::kObstacles, "thermovis::ObstacleArray", "thermovis/obstacles.idl", false,
+       transport::event_topic_qos()},
       {topics::kTiming, "thermovis::FrameTiming", "thermovis/perception.idl", false,
        transport::event_topic_qos()},
       {topics::kHealth, "thermovis::Health", "thermovis/health.idl", false,
@@ -297,6 +299,7 @@ auto with_type_tag(const std::string& type_name, Make&& make) {
   if (type_name == "thermovis::DetectionArray") return make(Tag<DetectionArray>{});
   if (type_name == "thermovis::MatchArray") return make(Tag<MatchArray>{});
   if (type_name == "thermovis::RangeArray") return make(Tag<RangeArray>{});
+  if (type_name == "thermovis::ObstacleArray") return make(Tag<ObstacleArray>{});
   if (type_name == "thermovis::FrameTiming") return make(Tag<FrameTiming>{});
   if (type_name == "thermovis::Health") return make(Tag<Health>{});
   throw std::invalid_argument("no DDS type " + type_name);
@@ -430,6 +433,10 @@ const std::vector<Ros2BagTopic>& ros2_bag_topics() {
        ros::ros2_type_name(
            transport::TypeSupportOf<thermovis_msgs::msg::dds_::DetectionArray_>::type().getName()),
        topics::kDetections, transport::event_topic_qos()},
+      {ros::ros2_topic_name(topics::kRos2Obstacles),
+       ros::ros2_type_name(
+           transport::TypeSupportOf<thermovis_msgs::msg::dds_::ObstacleArray_>::type().getName()),
+       topics::kObstacles, transport::event_topic_qos()},
   };
   return table;
 }
@@ -486,6 +493,13 @@ std::unique_ptr<TopicTap> make_ros2_tap(transport::Participant& participant,
         participant, topic,
         [](const DetectionArray& detections, thermovis_msgs::msg::dds_::DetectionArray_& m) {
           m = ros::to_ros(detections, ros::kImageFrameId);
+        });
+  }
+  if (topic.source == topics::kObstacles) {
+    return ros2_tap<ObstacleArray, thermovis_msgs::msg::dds_::ObstacleArray_>(
+        participant, topic,
+        [](const ObstacleArray& obstacles, thermovis_msgs::msg::dds_::ObstacleArray_& m) {
+          m = ros::to_ros(obstacles, ros::kRangesFrameId);
         });
   }
   throw std::invalid_argument("no ROS 2 message for pipeline topic " + topic.source);

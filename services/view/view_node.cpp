@@ -62,6 +62,7 @@ ViewNode::ViewNode(transport::Participant& participant, ViewHub& hub, const View
       fused_in_(participant, transport::topics::kFused, frame_reader_qos()),
       detections_in_(participant, transport::topics::kDetections, transport::event_topic_qos()),
       ranges_in_(participant, transport::topics::kRanges, transport::event_topic_qos()),
+      obstacles_in_(participant, transport::topics::kObstacles, transport::event_topic_qos()),
       timing_in_(participant, transport::topics::kTiming, transport::event_topic_qos(64)),
       health_in_(participant, transport::topics::kHealth, transport::state_topic_qos()),
       display_out_(participant, transport::topics::kDisplay, display_writer_qos()),
@@ -146,6 +147,11 @@ void ViewNode::take_messages() {
   }
   while (ranges_.size() > kKeptResults) ranges_.pop_front();
 
+  auto obstacles = obstacles_in_.take();
+  for (std::size_t i = 0; i < obstacles.size(); ++i)
+    obstacles_.push_back(obstacle_result_of(obstacles[i]));
+  while (obstacles_.size() > kKeptResults) obstacles_.pop_front();
+
   auto detections = detections_in_.take();
   for (std::size_t i = 0; i < detections.size(); ++i)
     detections_[detections[i].frame_seq()] = targets_of(detections[i]);
@@ -162,6 +168,13 @@ void ViewNode::take_messages() {
 const ViewNode::Image* ViewNode::find(const std::deque<Image>& ring, std::uint64_t seq) const {
   for (auto it = ring.rbegin(); it != ring.rend(); ++it) {
     if (it->seq == seq) return &*it;
+  }
+  return nullptr;
+}
+
+const ObstacleResult* ViewNode::obstacles_for(std::uint64_t seq) const {
+  for (auto it = obstacles_.rbegin(); it != obstacles_.rend(); ++it) {
+    if (it->seq <= seq) return &*it;
   }
   return nullptr;
 }
@@ -205,9 +218,14 @@ void ViewNode::compose(const Image& fused, const RangeResult* ranges, const std:
   } else if (const auto d = detections_.find(fused.seq); d != detections_.end()) {
     targets = d->second;
   }
+  display::Overlay overlay;
+  if (const ObstacleResult* o = obstacles_for(fused.seq)) {
+    targets.insert(targets.end(), o->obstacles.begin(), o->obstacles.end());
+    overlay = o->overlay;
+  }
 
   try {
-    const cv::Mat image = display::compose(fused.left, targets, status);
+    const cv::Mat image = display::compose(fused.left, targets, status, overlay);
     ++stats_.composed;
     health_.frame_processed();
     // thermovis/display: the fusion-ranging image for other DDS applications.
@@ -241,13 +259,13 @@ void ViewNode::compose(const Image& fused, const RangeResult* ranges, const std:
     cv::Mat infrared_8;
     if (infrared != nullptr) infrared_8 = agc_.process(infrared->left);
     if (visible != nullptr && hub_.wanted(View::visible))
-      encode(View::visible, display::compose(visible->left, targets, status));
+      encode(View::visible, display::compose(visible->left, targets, status, overlay));
     if (infrared != nullptr && hub_.wanted(View::infrared))
-      encode(View::infrared, display::compose(infrared_8, targets, status));
+      encode(View::infrared, display::compose(infrared_8, targets, status, overlay));
     if (visible != nullptr && infrared != nullptr && hub_.wanted(View::side_by_side)) {
       encode(View::side_by_side,
              display::compose_side_by_side(visible->left, infrared_8, fused.left, targets, status,
-                                           config_.panel_scale));
+                                           config_.panel_scale, overlay));
     }
   } catch (const std::exception& e) {
     health_.bad_input(std::string("composing frame ") + std::to_string(fused.seq) + ": " +

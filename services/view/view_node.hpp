@@ -1,7 +1,7 @@
 #pragma once
-// thermovis-view's DDS side: reads the fused and rectified frames, detections, ranges, timing
-// and health; composes the fusion-ranging image (display::compose) at a bounded rate, publishes
-// it on thermovis/display and encodes the views web clients ask for into the ViewHub.
+// thermovis-view's DDS side: reads the fused and rectified frames, detections, ranges, obstacles,
+// timing and health; composes the fusion-ranging image (display::compose) at a bounded rate,
+// publishes it on thermovis/display and encodes the views web clients ask for into the ViewHub.
 //
 // It must never slow the pipeline: frame readers keep the last 2 samples and this loop takes
 // them all, copies only the newest left image of the bands some view needs (a fraction of a
@@ -69,6 +69,7 @@ class ViewNode {
   std::optional<transport::Reader<GridStereoFrame>> visible_in_, infrared_in_;
   transport::Reader<DetectionArray> detections_in_;
   transport::Reader<RangeArray> ranges_in_;
+  transport::Reader<ObstacleArray> obstacles_in_;
   transport::Reader<FrameTiming> timing_in_;
   transport::Reader<Health> health_in_;
   transport::Writer<GridStereoFrame> display_out_;
@@ -77,6 +78,10 @@ class ViewNode {
 
   std::deque<Image> fused_, visible_, infrared_;  // newest last, a few frames each
   std::deque<RangeResult> ranges_;                // newest last
+  std::deque<ObstacleResult> obstacles_;          // newest last
+  // The obstacles drawn with frame `seq`: its own, else the newest before it (they come about
+  // with the ranges, sometimes after them); nullptr when none is held.
+  const ObstacleResult* obstacles_for(std::uint64_t seq) const;
   std::map<std::uint64_t, std::vector<display::Target>> detections_;  // by seq, a few
   std::uint64_t last_composed_seq_ = 0;
   std::chrono::steady_clock::time_point last_compose_{};

@@ -51,6 +51,26 @@ RangeResult range_result_of(const RangeArray& ranges, std::int64_t received_ns) 
   return r;
 }
 
+ObstacleResult obstacle_result_of(const ObstacleArray& obstacles) {
+  ObstacleResult r;
+  r.seq = obstacles.frame_seq();
+  for (const Obstacle& o : obstacles.obstacles()) {
+    if (o.has_target()) continue;
+    display::Target t;
+    t.id = o.obstacle_id();
+    t.label = o.label().to_string();
+    t.box = {o.box().x(), o.box().y(), o.box().width(), o.box().height()};
+    t.distance_m = o.distance_m();
+    t.sigma_m = o.sigma_m();
+    t.band = o.band();
+    t.obstacle = true;
+    r.obstacles.push_back(t);
+  }
+  r.overlay.free_space_row.assign(obstacles.free_space_row().begin(),
+                                  obstacles.free_space_row().end());
+  return r;
+}
+
 std::string targets_json(const display::Status& status,
                          const std::vector<display::Target>& targets) {
   nlohmann::json list = nlohmann::json::array();
@@ -62,6 +82,7 @@ std::string targets_json(const display::Status& status,
                     {"sigma_m", t.sigma_m},
                     {"band", display::band_name(t.band)},
                     {"points", t.points},
+                    {"obstacle", t.obstacle},
                     {"box", {t.box.x, t.box.y, t.box.width, t.box.height}}});
   }
   return nlohmann::json{{"frame_seq", status.frame_seq},

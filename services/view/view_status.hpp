@@ -12,6 +12,7 @@
 
 #include "thermovis/display/ranging_image.hpp"
 #include "thermovis/health.h"
+#include "thermovis/obstacles.h"
 #include "thermovis/perception.h"
 
 namespace thermovis::view {
@@ -39,6 +40,15 @@ struct RangeResult {
   std::vector<display::Target> targets;
 };
 RangeResult range_result_of(const RangeArray& ranges, std::int64_t received_ns);
+
+// One capture's obstacles (thermovis/obstacles) as drawn: those that are no ranged target
+// (display::Target::obstacle; a ranged target is drawn from its range) and the free space.
+struct ObstacleResult {
+  std::uint64_t seq = 0;
+  std::vector<display::Target> obstacles;
+  display::Overlay overlay;
+};
+ObstacleResult obstacle_result_of(const ObstacleArray& obstacles);
 
 // /targets.json of one composed frame: its seq, capture time, latency and note from `status`,
 // and `targets` (a distance or latency that is not finite is written as -1).

@@ -37,6 +37,7 @@ cv::Mat to_bgr(const cv::Mat& image) {
 
 // Box colours by band, chosen to stand out on grey infrared and on colour imagery alike.
 cv::Scalar colour_of(const Target& t) {
+  if (t.obstacle) return {255, 64, 255};  // magenta
   if (!std::isfinite(t.distance_m)) return {160, 160, 160};
   switch (t.band) {
     case kBandVisible:
@@ -112,6 +113,27 @@ void draw_targets(cv::Mat& image, const std::vector<Target>& targets, double sca
   }
 }
 
+// The free space as a line through each column's row (broken where it is unknown).
+void draw_free_space(cv::Mat& image, const Overlay& overlay, double scale) {
+  std::vector<cv::Point> run;
+  const auto flush = [&] {
+    if (run.size() >= 2) {
+      cv::polylines(image, run, false, cv::Scalar(255, 255, 0), 2, cv::LINE_AA);  // cyan
+    }
+    run.clear();
+  };
+  for (std::size_t u = 0; u < overlay.free_space_row.size(); ++u) {
+    const float row = overlay.free_space_row[u];
+    if (!std::isfinite(row)) {
+      flush();
+      continue;
+    }
+    run.emplace_back(static_cast<int>(std::lround(static_cast<double>(u) * scale)),
+                     static_cast<int>(std::lround(row * scale)));
+  }
+  flush();
+}
+
 std::string status_text(const Status& s) {
   char text[256];
   std::string latency = "-";
@@ -159,7 +181,9 @@ std::string target_caption(const Target& t) {
   const std::string name =
       (t.label.empty() || t.label == "person" ? std::string() : t.label + " ") + "#" +
       std::to_string(t.id);
-  if (!std::isfinite(t.distance_m)) {
+  if (t.obstacle) {
+    std::snprintf(text, sizeof text, "obstacle %.1f m", t.distance_m);
+  } else if (!std::isfinite(t.distance_m)) {
     std::snprintf(text, sizeof text, "%s no range", name.c_str());
   } else {
     const char* band = t.band == kBandVisible    ? " VIS"
@@ -172,15 +196,17 @@ std::string target_caption(const Target& t) {
   return text;
 }
 
-cv::Mat compose(const cv::Mat& image, const std::vector<Target>& targets, const Status& status) {
+cv::Mat compose(const cv::Mat& image, const std::vector<Target>& targets, const Status& status,
+                const Overlay& overlay) {
   cv::Mat body = to_bgr(image);
+  draw_free_space(body, overlay, 1.0);
   draw_targets(body, targets, 1.0);
   return with_header(body, status);
 }
 
 cv::Mat compose_side_by_side(const cv::Mat& visible, const cv::Mat& infrared, const cv::Mat& fused,
                              const std::vector<Target>& targets, const Status& status,
-                             double panel_scale) {
+                             double panel_scale, const Overlay& overlay) {
   if (!(panel_scale > 0.0 && panel_scale <= 1.0))
     throw std::invalid_argument("display: panel scale must be in (0, 1]");
   if (visible.size() != infrared.size() || visible.size() != fused.size())
@@ -191,6 +217,7 @@ cv::Mat compose_side_by_side(const cv::Mat& visible, const cv::Mat& infrared, co
   for (const cv::Mat* m : {&visible, &infrared, &fused}) {
     cv::Mat panel;
     cv::resize(to_bgr(*m), panel, cv::Size(), panel_scale, panel_scale, cv::INTER_AREA);
+    draw_free_space(panel, overlay, panel_scale);
     draw_targets(panel, targets, panel_scale);
     label(panel, names[i++], {panel.cols - 80, panel.rows - 20}, 0.45, {255, 255, 255});
     panels.push_back(panel);

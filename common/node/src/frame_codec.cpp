@@ -222,7 +222,7 @@ void check_stamps(const PipelineStamps& stamps, std::int64_t capture_ns, const s
       continue;
     }
     if (ended) throw FrameError(entry + " follows an unused entry");
-    if (stamp.stage() > STAGE_RANGE)
+    if (stamp.stage() > STAGE_OBSTACLES)
       throw FrameError(entry + ": unknown stage " + std::to_string(stamp.stage()));
     if (stamp.stage() <= previous_stage) {
       throw FrameError(entry + ": stage " + std::to_string(stamp.stage()) + " after stage " +

@@ -35,4 +35,12 @@ void check_bounds(const thermovis::Health& sample) {
   check(sample.topics().size(), thermovis::MAX_HEALTH_TOPICS, "Health.topics");
 }
 
+void check_bounds(const thermovis::ObstacleArray& sample) {
+  check(sample.obstacles().size(), thermovis::MAX_OBSTACLES, "ObstacleArray.obstacles");
+  check(sample.free_space_m().size(), thermovis::MAX_FREE_SPACE_COLUMNS,
+        "ObstacleArray.free_space_m");
+  check(sample.free_space_row().size(), thermovis::MAX_FREE_SPACE_COLUMNS,
+        "ObstacleArray.free_space_row");
+}
+
 }  // namespace thermovis::transport

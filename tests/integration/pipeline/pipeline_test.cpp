@@ -295,15 +295,17 @@ TEST(Pipeline, ThermovisRunPrintsRangesWithTheirTruthAndASummary) {
       dir / "run.log");
   ASSERT_EQ(run.wait(180s), 0) << run.log();
   std::istringstream lines(run.log());
-  std::vector<nlohmann::json> ranges;
+  std::vector<nlohmann::json> ranges, obstacles;
   nlohmann::json summary;
   for (std::string line; std::getline(lines, line);) {
     if (line.empty() || line.front() != '{') continue;
     const auto j = nlohmann::json::parse(line);
-    if (j.contains("frame_seq"))
-      ranges.push_back(j);
-    else
+    if (!j.contains("kind"))
       summary = j;
+    else if (j["kind"] == "range")
+      ranges.push_back(j);
+    else if (j["kind"] == "obstacle")
+      obstacles.push_back(j);
   }
   ASSERT_FALSE(summary.is_null()) << run.log();
   EXPECT_GT(summary["frames"].get<int>(), 20);
@@ -319,6 +321,33 @@ TEST(Pipeline, ThermovisRunPrintsRangesWithTheirTruthAndASummary) {
   EXPECT_EQ(summary["ranges_on_target"].get<std::size_t>(), on_target);
   EXPECT_GT(on_target, ranges.size() * 9 / 10);
   EXPECT_LT(summary["mean_abs_error_m"].get<double>(), 1.0);
+
+  // thermovis/obstacles: the paper scene's people, each once (merged with its range), matched
+  // to the truth at their distance.
+  EXPECT_EQ(summary["obstacles"].get<std::size_t>(), obstacles.size());
+  ASSERT_GT(obstacles.size(), 50u);
+  std::size_t people = 0, obstacles_on_target = 0;
+  std::map<std::uint64_t, std::set<std::uint32_t>> targets_of_frame;
+  for (const auto& o : obstacles) {
+    if (!o["target_id"].is_null()) {
+      ++people;
+      EXPECT_EQ(o["label"], "person");
+      // A ranged target comes once per frame.
+      EXPECT_TRUE(targets_of_frame[o["frame_seq"].get<std::uint64_t>()]
+                      .insert(o["target_id"].get<std::uint32_t>())
+                      .second)
+          << o.dump();
+    }
+    if (o["truth_id"].is_null()) continue;
+    ++obstacles_on_target;
+    EXPECT_NEAR(o["error_m"].get<double>(),
+                o["distance_m"].get<double>() - o["truth_distance_m"].get<double>(), 1e-3);
+    EXPECT_LE(std::abs(o["error_m"].get<double>()),
+              0.5 + 0.15 * o["truth_distance_m"].get<double>() + 1e-6);
+  }
+  EXPECT_GT(people, ranges.size() / 2);
+  EXPECT_EQ(summary["obstacles_on_target"].get<std::size_t>(), obstacles_on_target);
+  EXPECT_GT(obstacles_on_target, people / 2);
   std::filesystem::remove_all(dir);
 }
 

@@ -13,6 +13,7 @@
 #include <functional>
 #include <limits>
 #include <map>
+#include <memory>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 #include <random>
@@ -23,6 +24,7 @@
 #include "textured_pair.hpp"
 #include "thermovis/node/frame_codec.hpp"
 #include "thermovis/node/geometry_topic.hpp"
+#include "thermovis/obstacles.h"
 #include "thermovis/range/ranging.hpp"
 #include "thermovis/runtime/rig_io.hpp"
 #include "thermovis/test/child_process.hpp"
@@ -283,6 +285,77 @@ TEST(Services, MatchReportsABadDetectionAndServesTheNextGoodOne) {
   EXPECT_EQ(match.wait(20s), 0) << match.log();
 }
 
+// A rectified pair of infrared counts (MONO16): the textured pair's grey x 16 + 6000.
+void fill_infrared_pair(tv::GridStereoFrame& frame, cv::Size grid, int shift) {
+  const auto grey = std::make_unique<tv::GridStereoFrame>();  // 26 MB: not on the stack
+  tv::test::fill_textured_pair(*grey, grid, shift, CV_8UC1);
+  for (const auto eye : {tv::node::Eye::left, tv::node::Eye::right}) {
+    tv::node::view(*grey, eye)
+        .convertTo(tv::node::prepare(frame, eye, grid, CV_16UC1), CV_16U, 16, 6000);
+  }
+  frame.eyes(tv::EYES_BOTH);
+}
+
+TEST(Services, ObstaclesReportsABadFrameAndGivesAWallAStatusNotObstacles) {
+  Harness h(tv::test::private_domain());
+  ChildProcess& obstacles = h.start("thermovis-obstacles", {"--no-targets"});
+  tv::transport::Writer<tv::GridStereoFrame> visible(h.participant(), topics::kRectifiedVisible,
+                                                     tv::transport::frame_topic_qos());
+  tv::transport::Writer<tv::GridStereoFrame> infrared(h.participant(), topics::kRectifiedInfrared,
+                                                      tv::transport::frame_topic_qos());
+  tv::transport::Reader<tv::ObstacleArray> out(h.participant(), topics::kObstacles,
+                                               tv::transport::event_topic_qos());
+  ASSERT_TRUE(h.wait_health("thermovis-obstacles", waiting_for_input, 60s)) << obstacles.log();
+  ASSERT_TRUE(visible.wait_for_readers(1, 10000ms));
+  ASSERT_TRUE(infrared.wait_for_readers(1, 10000ms));
+  ASSERT_TRUE(out.wait_for_writers(1, 10000ms));
+
+  const cv::Size grid = pipeline_geometry().grid_size();
+  {
+    // 8-bit pixels on the infrared topic: not the counts the pair is searched in.
+    auto loan = infrared.loan();
+    tv::test::fill_textured_pair(*loan, grid, 6, CV_8UC3);
+    loan->seq(1);
+    infrared.publish(std::move(loan));
+  }
+  const auto reported = h.wait_health(
+      "thermovis-obstacles", [](const tv::Health& x) { return x.errors() >= 1; }, 30s);
+  ASSERT_TRUE(reported) << obstacles.log();
+  EXPECT_NE(reported->message().to_string().find("MONO16"), std::string::npos)
+      << reported->message().to_string();
+
+  // A textured wall across the whole view at one disparity, in both pairs: no ground near the
+  // prior, so a status and no obstacle.
+  {
+    auto ir = infrared.loan();
+    fill_infrared_pair(*ir, grid, 6);
+    ir->seq(2);
+    infrared.publish(std::move(ir));
+    auto vis = visible.loan();
+    tv::test::fill_textured_pair(*vis, grid, 6, CV_8UC3);
+    vis->seq(2);
+    visible.publish(std::move(vis));
+  }
+  std::optional<tv::ObstacleArray> answer;
+  ASSERT_TRUE(receive<tv::ObstacleArray>(
+      out,
+      [&](const tv::ObstacleArray& a) {
+        if (a.frame_seq() == 2) answer = a;
+        return answer.has_value();
+      },
+      30s))
+      << obstacles.log();
+  EXPECT_NE(answer->visible_ground(), tv::GROUND_OK);
+  EXPECT_NE(answer->visible_ground(), tv::GROUND_NOT_SEARCHED);
+  EXPECT_NE(answer->infrared_ground(), tv::GROUND_OK);
+  EXPECT_NE(answer->infrared_ground(), tv::GROUND_NOT_SEARCHED);
+  EXPECT_TRUE(answer->obstacles().empty());
+  ASSERT_EQ(answer->free_space_m().size(), static_cast<std::size_t>(grid.width));
+  for (float f : answer->free_space_m()) EXPECT_TRUE(std::isnan(f));
+  obstacles.signal(SIGTERM);
+  EXPECT_EQ(obstacles.wait(20s), 0) << obstacles.log();
+}
+
 // The bridge's two raw frame topics, publishing one capture: uniform infrared and visible
 // pairs, the visible one's header saying `visible_size` (its pixels fit the frame type).
 struct RawCaptures {
@@ -420,8 +493,8 @@ TEST(Services, EveryServiceStopsCleanlyOnSigterm) {
   Harness h(tv::test::private_domain());
   std::map<std::string, ChildProcess*> services;
   services["thermovis-bridge"] = &h.start("thermovis-bridge", {"--source", "sim"});
-  for (const char* name :
-       {"thermovis-rectify-fuse", "thermovis-detect", "thermovis-match", "thermovis-range"}) {
+  for (const char* name : {"thermovis-rectify-fuse", "thermovis-detect", "thermovis-match",
+                           "thermovis-range", "thermovis-obstacles"}) {
     services[name] = &h.start(name);
   }
   for (const auto& [name, process] : services) {
@@ -430,8 +503,8 @@ TEST(Services, EveryServiceStopsCleanlyOnSigterm) {
   // Let frames flow for a moment, so the services stop in the middle of their work; then stop
   // them downstream first, as the supervisor does (deploy/pipeline.yaml says why).
   std::this_thread::sleep_for(2s);
-  for (const char* name : {"thermovis-range", "thermovis-match", "thermovis-detect",
-                           "thermovis-rectify-fuse", "thermovis-bridge"}) {
+  for (const char* name : {"thermovis-obstacles", "thermovis-range", "thermovis-match",
+                           "thermovis-detect", "thermovis-rectify-fuse", "thermovis-bridge"}) {
     ChildProcess* process = services.at(name);
     process->signal(SIGTERM);
     EXPECT_EQ(process->wait(30s), 0) << name << ":\n" << process->log();

@@ -6,8 +6,10 @@
 #include <dds/dds.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <limits>
 #include <map>
 #include <opencv2/core.hpp>
 #include <string>
@@ -17,6 +19,7 @@
 #include "ros2/sensor_msgs.h"
 #include "ros2/thermovis_msgs.h"
 #include "thermovis/node/frame_codec.hpp"
+#include "thermovis/obstacles.h"
 #include "thermovis/test/child_process.hpp"
 #include "thermovis/test/data.hpp"
 #include "thermovis/transport/participant.hpp"
@@ -47,6 +50,7 @@ struct Fed {
   std::string encoding;
   cv::Mat left;  // the pixels (a copy)
   tv::RangeArray ranges;
+  tv::ObstacleArray obstacles;
 };
 
 // A subscriber of the ROS 2 side: Cyclone DDS, reliable KEEP_LAST 16 (an rclcpp subscription
@@ -64,10 +68,15 @@ class CycloneSide {
     const dds_entity_t ranges_topic =
         dds_create_topic(participant_, &thermovis_msgs_msg_dds__RangeArray__desc,
                          topics::kRos2Ranges, nullptr, nullptr);
+    const dds_entity_t obstacles_topic =
+        dds_create_topic(participant_, &thermovis_msgs_msg_dds__ObstacleArray__desc,
+                         topics::kRos2Obstacles, nullptr, nullptr);
     images = dds_create_reader(participant_, image_topic, qos, nullptr);
     ranges = dds_create_reader(participant_, ranges_topic, qos, nullptr);
+    obstacles = dds_create_reader(participant_, obstacles_topic, qos, nullptr);
     dds_delete_qos(qos);
-    if (images < 0 || ranges < 0) throw std::runtime_error("cannot create Cyclone readers");
+    if (images < 0 || ranges < 0 || obstacles < 0)
+      throw std::runtime_error("cannot create Cyclone readers");
   }
   ~CycloneSide() { dds_delete(participant_); }
   CycloneSide(const CycloneSide&) = delete;
@@ -90,7 +99,7 @@ class CycloneSide {
     if (n > 0) dds_return_loan(reader, samples, n);
   }
 
-  dds_entity_t images = 0, ranges = 0;
+  dds_entity_t images = 0, ranges = 0, obstacles = 0;
 
  private:
   dds_entity_t participant_ = 0;
@@ -124,6 +133,8 @@ class Ros2Bridge : public ::testing::Test {
         *participant_, topics::kFused, tv::transport::frame_topic_qos(0ns, 2, 2));
     ranges_ = std::make_unique<tv::transport::Writer<tv::RangeArray>>(
         *participant_, topics::kRanges, tv::transport::event_topic_qos());
+    obstacles_ = std::make_unique<tv::transport::Writer<tv::ObstacleArray>>(
+        *participant_, topics::kObstacles, tv::transport::event_topic_qos());
     health_ = std::make_unique<tv::transport::Reader<tv::Health>>(*participant_, topics::kHealth,
                                                                   tv::transport::state_topic_qos());
   }
@@ -179,6 +190,41 @@ class Ros2Bridge : public ::testing::Test {
     tv::transport::append_stamp(r.stamps(), tv::STAGE_RANGE, fed.capture_ns + 1'000'000,
                                 fed.capture_ns + 4'000'000);
     ranges_->write(r);
+
+    // One ranged person and one obstacle, and the free space of a 5-column grid.
+    tv::ObstacleArray& o = fed.obstacles;
+    o.frame_seq(seq);
+    o.capture_time_ns(fed.capture_ns);
+    o.visible_ground(tv::GROUND_OK);
+    o.infrared_ground(tv::GROUND_NO_GROUND);
+    o.ground_normal({0.0f, 0.99f, 0.141f});
+    o.ground_height_m(1.4f);
+    for (std::uint32_t i = 0; i < 2; ++i) {
+      tv::Obstacle b;
+      b.obstacle_id(i);
+      b.label(i == 0 ? "person" : "obstacle");
+      b.has_target(i == 0);
+      b.target_id(i == 0 ? 1 : 0);
+      b.distance_m(5.0f + static_cast<float>(seq % 5) + 3 * i);
+      b.sigma_m(0.1f + i);
+      b.x_m(-1.0f + i);
+      b.y_m(0.5f);
+      b.z_m(b.distance_m());
+      b.width_m(0.6f + i);
+      b.height_m(1.7f);
+      b.depth_m(0.25f * i);
+      b.box(box(100.f + i * 200, 80.f, 40.f, 90.f + i));
+      b.band(i == 0 ? tv::BAND_FUSED : tv::BAND_VISIBLE);
+      b.stixels(4 + i);
+      o.obstacles().push_back(b);
+    }
+    o.free_space_m({60.0f, 12.5f, std::numeric_limits<float>::quiet_NaN(), 8.0f, 60.0f});
+    o.free_space_row({300.5f, 320.0f, std::numeric_limits<float>::quiet_NaN(), 340.25f, 300.5f});
+    o.max_distance_m(60.0f);
+    tv::transport::clear_stamps(o.stamps());
+    tv::transport::append_stamp(o.stamps(), tv::STAGE_OBSTACLES, fed.capture_ns + 1'000'000,
+                                fed.capture_ns + 6'000'000);
+    obstacles_->write(o);
     fed_[seq] = std::move(fed);
   }
 
@@ -208,14 +254,16 @@ class Ros2Bridge : public ::testing::Test {
   std::unique_ptr<tv::transport::Participant> participant_;
   std::unique_ptr<tv::transport::Writer<tv::GridStereoFrame>> fused_;
   std::unique_ptr<tv::transport::Writer<tv::RangeArray>> ranges_;
+  std::unique_ptr<tv::transport::Writer<tv::ObstacleArray>> obstacles_;
   std::unique_ptr<tv::transport::Reader<tv::Health>> health_;
   std::map<std::uint64_t, Fed> fed_;
 };
 
-TEST_F(Ros2Bridge, RepublishesFusedImageAndRangesForRos2OnlyWhileSubscribed) {
+TEST_F(Ros2Bridge, RepublishesFusedImageRangesAndObstaclesForRos2OnlyWhileSubscribed) {
   ChildProcess bridge = start_bridge();
   ASSERT_TRUE(fused_->wait_for_readers(1, 30000ms)) << bridge.log();
   ASSERT_TRUE(ranges_->wait_for_readers(1, 30000ms)) << bridge.log();
+  ASSERT_TRUE(obstacles_->wait_for_readers(1, 30000ms)) << bridge.log();
 
   // No ROS 2 subscriber: the inputs arrive, nothing is converted or written. Frames are fed
   // until the bridge has taken ten of each (a frame reader keeps the newest two: on a loaded
@@ -235,21 +283,26 @@ TEST_F(Ros2Bridge, RepublishesFusedImageAndRangesForRos2OnlyWhileSubscribed) {
   EXPECT_EQ(samples_of(*idle, topics::kRos2FusedImage), 0u);
   EXPECT_EQ(samples_of(*idle, topics::kRos2Ranges), 0u);
   EXPECT_EQ(samples_of(*idle, topics::kRos2Detections), 0u);
+  EXPECT_EQ(samples_of(*idle, topics::kRos2Obstacles), 0u);
 
   // A ROS 2 node subscribes.
   CycloneSide ros(domain_);
   const auto match_until = std::chrono::steady_clock::now() + 30s;
-  while (std::chrono::steady_clock::now() < match_until &&
-         !(CycloneSide::matched(ros.images) && CycloneSide::matched(ros.ranges)))
+  const auto all_matched = [&] {
+    return CycloneSide::matched(ros.images) && CycloneSide::matched(ros.ranges) &&
+           CycloneSide::matched(ros.obstacles);
+  };
+  while (std::chrono::steady_clock::now() < match_until && !all_matched())
     std::this_thread::sleep_for(20ms);
-  ASSERT_TRUE(CycloneSide::matched(ros.images) && CycloneSide::matched(ros.ranges)) << bridge.log();
+  ASSERT_TRUE(all_matched()) << bridge.log();
 
   // Captures 100.. alternate bgr8 and mono8; one corrupt frame in between.
   std::map<std::int64_t, std::uint64_t> seq_of_capture;
-  int images = 0, bgr = 0, mono = 0, ranges = 0;
+  int images = 0, bgr = 0, mono = 0, ranges = 0, obstacles = 0;
   std::uint64_t seq = 100;
   const auto until = std::chrono::steady_clock::now() + 60s;
-  while (std::chrono::steady_clock::now() < until && (bgr < 4 || mono < 4 || ranges < 8)) {
+  while (std::chrono::steady_clock::now() < until &&
+         (bgr < 4 || mono < 4 || ranges < 8 || obstacles < 8)) {
     if (seq == 103) {
       feed(seq++, false, true);
       // Nothing newer until the bridge has taken it (it converts only the newest frame queued).
@@ -305,10 +358,58 @@ TEST_F(Ros2Bridge, RepublishesFusedImageAndRangesForRos2OnlyWhileSubscribed) {
       }
       ++ranges;
     });
+    CycloneSide::take<thermovis_msgs_msg_dds__ObstacleArray_>(ros.obstacles, [&](const auto& r) {
+      ASSERT_TRUE(fed_.count(r.frame_seq_)) << r.frame_seq_;
+      const tv::ObstacleArray& want = fed_.at(r.frame_seq_).obstacles;
+      SCOPED_TRACE("obstacles of capture " + std::to_string(r.frame_seq_));
+      EXPECT_EQ(ns_of(r.header_.stamp_), want.capture_time_ns());
+      EXPECT_STREQ(r.header_.frame_id_, "thermovis_visible_left_optical");
+      EXPECT_FLOAT_EQ(r.latency_ms_, 6.0f);
+      EXPECT_EQ(r.visible_ground_, tv::GROUND_OK);
+      EXPECT_EQ(r.infrared_ground_, tv::GROUND_NO_GROUND);
+      for (int k = 0; k < 3; ++k) EXPECT_EQ(r.ground_normal_[k], want.ground_normal()[k]);
+      EXPECT_EQ(r.ground_height_m_, want.ground_height_m());
+      EXPECT_EQ(r.max_distance_m_, want.max_distance_m());
+      ASSERT_EQ(r.obstacles_._length, want.obstacles().size());
+      for (std::uint32_t i = 0; i < r.obstacles_._length; ++i) {
+        const auto& got = r.obstacles_._buffer[i];
+        const tv::Obstacle& o = want.obstacles()[i];
+        EXPECT_EQ(got.obstacle_id_, o.obstacle_id());
+        EXPECT_EQ(std::string(got.label_), o.label().to_string());
+        EXPECT_EQ(got.has_target_, o.has_target());
+        EXPECT_EQ(got.target_id_, o.target_id());
+        EXPECT_EQ(got.distance_m_, o.distance_m());
+        EXPECT_EQ(got.sigma_m_, o.sigma_m());
+        EXPECT_EQ(got.x_m_, o.x_m());
+        EXPECT_EQ(got.y_m_, o.y_m());
+        EXPECT_EQ(got.z_m_, o.z_m());
+        EXPECT_EQ(got.width_m_, o.width_m());
+        EXPECT_EQ(got.height_m_, o.height_m());
+        EXPECT_EQ(got.depth_m_, o.depth_m());
+        EXPECT_EQ(got.box_.x_, o.box().x());
+        EXPECT_EQ(got.box_.height_, o.box().height());
+        EXPECT_EQ(got.band_, o.band());
+        EXPECT_EQ(got.stixels_, o.stixels());
+      }
+      ASSERT_EQ(r.free_space_m_._length, want.free_space_m().size());
+      ASSERT_EQ(r.free_space_row_._length, want.free_space_row().size());
+      for (std::uint32_t i = 0; i < r.free_space_m_._length; ++i) {
+        const float m = want.free_space_m()[i], row = want.free_space_row()[i];
+        if (std::isnan(m)) {
+          EXPECT_TRUE(std::isnan(r.free_space_m_._buffer[i])) << i;
+          EXPECT_TRUE(std::isnan(r.free_space_row_._buffer[i])) << i;
+        } else {
+          EXPECT_EQ(r.free_space_m_._buffer[i], m) << i;
+          EXPECT_EQ(r.free_space_row_._buffer[i], row) << i;
+        }
+      }
+      ++obstacles;
+    });
   }
   EXPECT_GE(bgr, 4) << bridge.log();
   EXPECT_GE(mono, 4) << bridge.log();
   EXPECT_GE(ranges, 8) << bridge.log();
+  EXPECT_GE(obstacles, 8) << bridge.log();
 
   // The corrupt frame was reported by name and the bridge kept serving.
   const auto reported = wait_health(

@@ -46,6 +46,10 @@ TEST(IdlTypes, ArrayBoundsEqualTheirConstants) {
             thermovis::MAX_STAGE_STAMPS);
   EXPECT_EQ(std::remove_cvref_t<decltype(std::declval<thermovis::TargetRange>().label())>::max_size,
             thermovis::MAX_LABEL_LENGTH);
+  EXPECT_EQ(std::remove_cvref_t<decltype(std::declval<thermovis::Obstacle>().label())>::max_size,
+            thermovis::MAX_LABEL_LENGTH);
+  EXPECT_EQ(extent<decltype(std::declval<thermovis::ObstacleArray>().ground_normal())>(), 3u);
+  EXPECT_GE(thermovis::MAX_FREE_SPACE_COLUMNS, thermovis::GRID_WIDTH);
   EXPECT_EQ(std::remove_cvref_t<decltype(std::declval<thermovis::Health>().service())>::max_size,
             thermovis::MAX_SERVICE_NAME_LENGTH);
   EXPECT_EQ(std::remove_cvref_t<decltype(std::declval<thermovis::Health>().message())>::max_size,
@@ -115,6 +119,8 @@ TEST(TransportStamps, LatencyRunsFromCaptureToTheLatestStageEnd) {
 TEST(IdlTypes, PublicContractNames) {
   EXPECT_EQ(thermovis::RangeArrayPubSubType().getName(), std::string("thermovis::RangeArray"));
   EXPECT_EQ(thermovis::HealthPubSubType().getName(), std::string("thermovis::Health"));
+  EXPECT_EQ(thermovis::ObstacleArrayPubSubType().getName(),
+            std::string("thermovis::ObstacleArray"));
   // Health is keyed by service: one TRANSIENT_LOCAL instance per service.
   EXPECT_TRUE(thermovis::HealthPubSubType().m_isGetKeyDefined);
   EXPECT_FALSE(thermovis::RangeArrayPubSubType().m_isGetKeyDefined);
@@ -136,6 +142,15 @@ TEST(TransportBounds, OversizedSequencesAreRefused) {
   matches.targets().resize(1);
   matches.targets()[0].points().resize(thermovis::MAX_POINT_MATCHES + 1);
   EXPECT_THROW(tt::check_bounds(matches), std::invalid_argument);
+  thermovis::ObstacleArray obstacles;
+  obstacles.obstacles().resize(thermovis::MAX_OBSTACLES);
+  obstacles.free_space_m().resize(thermovis::MAX_FREE_SPACE_COLUMNS);
+  EXPECT_NO_THROW(tt::check_bounds(obstacles));
+  obstacles.free_space_row().resize(thermovis::MAX_FREE_SPACE_COLUMNS + 1);
+  EXPECT_THROW(tt::check_bounds(obstacles), std::invalid_argument);
+  obstacles.free_space_row().clear();
+  obstacles.obstacles().resize(thermovis::MAX_OBSTACLES + 1);
+  EXPECT_THROW(tt::check_bounds(obstacles), std::invalid_argument);
 }
 
 TEST(TransportQos, FramePoolsAreSizedExactly) {

@@ -40,6 +40,15 @@ struct Target {
   double sigma_m = 0.0;
   std::uint32_t band = 0;
   std::uint32_t points = 0;  // stereo points the distance rests on
+  // An obstacle of thermovis/obstacles that is no ranged target (framed in magenta; its
+  // distance is horizontal, to its near face).
+  bool obstacle = false;
+};
+
+// What is drawn over the image besides the boxes: the free space (thermovis/obstacles), per
+// grid column the row where the ground is free up to (NaN: unknown), drawn as a line.
+struct Overlay {
+  std::vector<float> free_space_row;
 };
 
 struct Status {
@@ -59,16 +68,17 @@ inline constexpr int kHeaderRows = 32;
 // One image with boxes and header: kHeaderRows + image.rows rows, at least kStampWidth wide
 // (a narrower image is padded on the right). Throws std::invalid_argument for an empty image or
 // another pixel type.
-cv::Mat compose(const cv::Mat& image, const std::vector<Target>& targets, const Status& status);
+cv::Mat compose(const cv::Mat& image, const std::vector<Target>& targets, const Status& status,
+                const Overlay& overlay = {});
 
 // Visible, infrared and fused side by side, each scaled by `panel_scale` and framed with the
 // same boxes, under one header. Every panel must have the same size.
 cv::Mat compose_side_by_side(const cv::Mat& visible, const cv::Mat& infrared, const cv::Mat& fused,
                              const std::vector<Target>& targets, const Status& status,
-                             double panel_scale = 0.5);
+                             double panel_scale = 0.5, const Overlay& overlay = {});
 
 // The text beside a target's box: "#3 10.04 +- 0.03 m IR" ("vehicle #3 ..." for classes other
-// than person; "#3 no range" without a distance).
+// than person; "#3 no range" without a distance; "obstacle 12.3 m" for an obstacle).
 std::string target_caption(const Target& target);
 
 }  // namespace thermovis::display

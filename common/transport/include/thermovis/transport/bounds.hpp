@@ -4,6 +4,7 @@
 // vendor (Cyclone DDS) drops a sample that exceeds a bound: so the writer refuses it here with
 // a clear error instead. Bounded strings need no check (fixed_string truncates).
 #include "thermovis/healthPubSubTypes.h"
+#include "thermovis/obstaclesPubSubTypes.h"
 #include "thermovis/perceptionPubSubTypes.h"
 
 namespace thermovis::transport {
@@ -13,6 +14,7 @@ void check_bounds(const thermovis::DetectionArray& sample);
 void check_bounds(const thermovis::MatchArray& sample);
 void check_bounds(const thermovis::RangeArray& sample);
 void check_bounds(const thermovis::Health& sample);
+void check_bounds(const thermovis::ObstacleArray& sample);
 
 // True for types with a check_bounds overload.
 template <class T>

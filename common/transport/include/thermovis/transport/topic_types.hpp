@@ -7,6 +7,7 @@
 #include "thermovis/framesPubSubTypes.h"
 #include "thermovis/geometryPubSubTypes.h"
 #include "thermovis/healthPubSubTypes.h"
+#include "thermovis/obstaclesPubSubTypes.h"
 #include "thermovis/perceptionPubSubTypes.h"
 
 namespace thermovis::transport {
@@ -29,6 +30,7 @@ THERMOVIS_TYPE_SUPPORT(MatchArray);
 THERMOVIS_TYPE_SUPPORT(RangeArray);
 THERMOVIS_TYPE_SUPPORT(FrameTiming);
 THERMOVIS_TYPE_SUPPORT(Health);
+THERMOVIS_TYPE_SUPPORT(ObstacleArray);
 
 #undef THERMOVIS_TYPE_SUPPORT
 

@@ -15,8 +15,10 @@ inline constexpr const char* kGeometry = "thermovis/geometry";
 inline constexpr const char* kDetections = "thermovis/detections";  // DetectionArray
 inline constexpr const char* kMatches = "thermovis/matches";        // MatchArray
 inline constexpr const char* kRanges = "thermovis/ranges";          // RangeArray
-inline constexpr const char* kTiming = "thermovis/timing";          // FrameTiming
-inline constexpr const char* kHealth = "thermovis/health";          // Health (keyed by service)
+// ObstacleArray: obstacles and free space (public contract, like kRanges).
+inline constexpr const char* kObstacles = "thermovis/obstacles";
+inline constexpr const char* kTiming = "thermovis/timing";  // FrameTiming
+inline constexpr const char* kHealth = "thermovis/health";  // Health (keyed by service)
 // GridStereoFrame, BGR8: the fusion-ranging image (left; right is black), from thermovis-view.
 inline constexpr const char* kDisplay = "thermovis/display";
 
@@ -26,5 +28,7 @@ inline constexpr const char* kRos2FusedImage = "rt/thermovis/fused/image";  // s
 inline constexpr const char* kRos2Ranges = "rt/thermovis/ranges";  // thermovis_msgs/RangeArray
 inline constexpr const char* kRos2Detections =
     "rt/thermovis/detections";  // thermovis_msgs/DetectionArray
+inline constexpr const char* kRos2Obstacles =
+    "rt/thermovis/obstacles";  // thermovis_msgs/ObstacleArray
 
 }  // namespace thermovis::transport::topics

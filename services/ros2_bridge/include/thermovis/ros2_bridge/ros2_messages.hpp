@@ -1,7 +1,7 @@
 #pragma once
 // thermovis messages -> their ROS 2 counterparts (idl/ros2/): the fused frame's left eye as a
-// sensor_msgs/Image, ranges and detections as thermovis_msgs arrays, and the ROS 2 names and
-// .msg definitions of those types. Pure conversions, testable without DDS; the bridge
+// sensor_msgs/Image, ranges, detections and obstacles as thermovis_msgs arrays, and the ROS 2 names
+// and .msg definitions of those types. Pure conversions, testable without DDS; the bridge
 // (thermovis-ros2) publishes them, `thermovis record --ros2` writes them into a ROS 2 bag.
 #include <cstdint>
 #include <string>
@@ -9,6 +9,7 @@
 #include "ros2/sensor_msgs.h"
 #include "ros2/thermovis_msgs.h"
 #include "thermovis/frames.h"
+#include "thermovis/obstacles.h"
 #include "thermovis/perception.h"
 
 namespace thermovis::ros2_bridge {
@@ -52,5 +53,7 @@ thermovis_msgs::msg::dds_::RangeArray_ to_ros(const RangeArray& ranges,
                                               const std::string& frame_id);
 thermovis_msgs::msg::dds_::DetectionArray_ to_ros(const DetectionArray& detections,
                                                   const std::string& frame_id);
+thermovis_msgs::msg::dds_::ObstacleArray_ to_ros(const ObstacleArray& obstacles,
+                                                 const std::string& frame_id);
 
 }  // namespace thermovis::ros2_bridge

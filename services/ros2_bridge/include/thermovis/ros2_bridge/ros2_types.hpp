@@ -19,4 +19,9 @@ struct TypeSupportOf<::thermovis_msgs::msg::dds_::DetectionArray_> {
   using type = ::thermovis_msgs::msg::dds_::DetectionArray_PubSubType;
 };
 
+template <>
+struct TypeSupportOf<::thermovis_msgs::msg::dds_::ObstacleArray_> {
+  using type = ::thermovis_msgs::msg::dds_::ObstacleArray_PubSubType;
+};
+
 }  // namespace thermovis::transport
