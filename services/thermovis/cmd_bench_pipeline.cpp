@@ -40,6 +40,7 @@ bool run_for(thermovis::cli::PipelineSession& session, thermovis::cli::DisplaySe
   while (std::chrono::steady_clock::now() < end) {
     if (thermovis::node::stop_requested()) return false;
     session.step();
+    session.step_obstacles();
     if (display != nullptr) display->poll();
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }
@@ -141,8 +142,9 @@ int run_bench(const Options& opt) {
   // Not part of the budget (the pipeline's), but listed beside its processes.
   cpu.insert(cpu.end(), display_cpu.begin(), display_cpu.end());
   const auto errors = session.errors();
+  const auto obstacles = session.obstacle_errors();
   if (opt.json) {
-    auto j = thermovis::cli::summary_json(latency, errors);
+    auto j = thermovis::cli::summary_json(latency, errors, &obstacles);
     j["seconds"] = opt.seconds;
     j["prerender"] = opt.session.prerender;
     j["grid_scale"] = opt.session.grid_scale;
@@ -205,7 +207,8 @@ int run_bench(const Options& opt) {
     }
     if (!opt.display.browser.empty())
       std::cout << display_text(display_latency, opt.display.browser);
-    std::cout << thermovis::cli::errors_text(errors);
+    std::cout << thermovis::cli::errors_text(errors)
+              << thermovis::cli::obstacle_errors_text(obstacles);
   }
   return latency.frames > 0 ? 0 : 2;
 }

@@ -175,7 +175,11 @@ const std::vector<sim::TargetTruth>& PipelineSession::truth_at(std::uint64_t seq
   const std::int64_t frame =
       cycled ? static_cast<std::int64_t>(seq % options_.prerender) : static_cast<std::int64_t>(seq);
   if (const auto it = truth_by_frame_.find(frame); it != truth_by_frame_.end()) return it->second;
-  if (!cycled) truth_by_frame_.clear();  // live rendering: frames do not come back
+  if (!cycled) {
+    // Live rendering: frames do not come back once both their ranges and obstacles are in.
+    while (!truth_by_frame_.empty() && truth_by_frame_.begin()->first + 8 < frame)
+      truth_by_frame_.erase(truth_by_frame_.begin());
+  }
   return truth_by_frame_.emplace(frame, sim_->truth(frame)).first->second;
 }
 
@@ -245,6 +249,7 @@ std::vector<CheckedObstacle> PipelineSession::step_obstacles() {
     const ObstacleArray& array = arrays[i];
     ++obstacle_frames_;
     const double latency = transport::latency_ms(array.stamps(), array.capture_time_ns());
+    obstacle_latency_ms_.push_back(latency);
     const std::vector<sim::TargetTruth>& truth = truth_at(array.frame_seq());
     for (const Obstacle& o : array.obstacles()) {
       CheckedObstacle c;
@@ -287,6 +292,7 @@ void PipelineSession::reset_statistics() {
   obstacle_frames_ = 0;
   checked_.clear();
   checked_obstacles_.clear();
+  obstacle_latency_ms_.clear();
   cpu_marks_.mark(supervisor_->services());
 }
 
@@ -386,6 +392,10 @@ ObstacleErrorSummary PipelineSession::obstacle_errors() const {
     truths.push_back(c.truth_distance_m);
     errors.push_back(c.error_m);
   }
+  if (!obstacle_latency_ms_.empty()) {
+    s.latency_p50_ms = metrics::percentile(obstacle_latency_ms_, 50);
+    s.latency_p99_ms = metrics::percentile(obstacle_latency_ms_, 99);
+  }
   s.matched = abs_errors.size();
   if (!abs_errors.empty()) {
     s.median_abs_error_m = metrics::percentile(abs_errors, 50);
@@ -449,8 +459,9 @@ std::string obstacle_json(const CheckedObstacle& c) {
 
 std::string obstacle_errors_text(const ObstacleErrorSummary& s) {
   std::ostringstream out;
-  out << "obstacles " << s.obstacles << " in " << s.frames << " results (" << s.targets
-      << " ranged targets), " << s.matched << " on a simulated target; |error| median "
+  out << "obstacles " << s.obstacles << " in " << s.frames << " results (capture to obstacles p50 "
+      << fixed(s.latency_p50_ms, 1) << " ms, p99 " << fixed(s.latency_p99_ms, 1) << " ms; "
+      << s.targets << " ranged targets), " << s.matched << " on a simulated target; |error| median "
       << fixed(s.median_abs_error_m, 2) << " m (" << fixed(100.0 * s.median_abs_relative_error, 1)
       << " %)\n";
   for (const auto& t : s.targets_found) {
@@ -509,6 +520,8 @@ nlohmann::json summary_json(const supervisor::LatencySummary& latency,
     j["obstacles"] = obstacles->obstacles;
     j["obstacles_on_target"] = obstacles->matched;
     j["obstacle_median_abs_error_m"] = obstacles->median_abs_error_m;
+    j["obstacle_latency_p50_ms"] = obstacles->latency_p50_ms;
+    j["obstacle_latency_p99_ms"] = obstacles->latency_p99_ms;
   }
   j["ranges"] = errors.ranges;
   j["ranges_on_target"] = errors.matched;

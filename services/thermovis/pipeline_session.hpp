@@ -74,6 +74,7 @@ struct ObstacleErrorSummary {
   std::uint64_t targets = 0;    // of which ranged targets (persons)
   std::uint64_t matched = 0;    // of which belong to a simulated target
   double median_abs_error_m = 0.0, median_abs_relative_error = 0.0;
+  double latency_p50_ms = 0.0, latency_p99_ms = 0.0;  // capture to the obstacle array
   // Per simulated target: the truth distance, the obstacles matched to it, their median error.
   struct PerTarget {
     std::string id;
@@ -183,6 +184,7 @@ class PipelineSession {
   std::unique_ptr<transport::Reader<ObstacleArray>> obstacles_in_;
   std::uint64_t frames_ = 0, obstacle_frames_ = 0;
   std::vector<CheckedObstacle> checked_obstacles_;
+  std::vector<double> obstacle_latency_ms_;  // per obstacle array
   std::vector<CheckedRange> checked_;
   CpuMarks cpu_marks_;
   std::vector<ServiceOutage> outages_;
@@ -203,7 +205,7 @@ std::string obstacle_errors_text(const ObstacleErrorSummary& errors);
 // The supervisor's latency summary (supervisor::summary_json) with the ranging errors added:
 // ranges, ranges_on_target, mean_abs_error_m, p95_abs_error_m, mean_abs_relative_error.
 // With `obstacles`, also obstacle_frames, obstacles, obstacles_on_target,
-// obstacle_median_abs_error_m.
+// obstacle_median_abs_error_m, obstacle_latency_p50_ms, obstacle_latency_p99_ms.
 nlohmann::json summary_json(const supervisor::LatencySummary& latency,
                             const RangeErrorSummary& errors,
                             const ObstacleErrorSummary* obstacles = nullptr);

@@ -347,7 +347,8 @@ void expect_bag_matches_its_mcap(const nlohmann::json& view) {
   const std::map<std::string, std::string> expected_types{
       {"/thermovis/fused/image", "sensor_msgs/msg/Image"},
       {"/thermovis/ranges", "thermovis_msgs/msg/RangeArray"},
-      {"/thermovis/detections", "thermovis_msgs/msg/DetectionArray"}};
+      {"/thermovis/detections", "thermovis_msgs/msg/DetectionArray"},
+      {"/thermovis/obstacles", "thermovis_msgs/msg/ObstacleArray"}};
   std::map<std::string, std::string> channel_types;
   std::map<std::string, std::uint64_t> channel_counts;
   std::uint64_t channel_total = 0;
