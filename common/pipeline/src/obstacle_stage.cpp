@@ -23,6 +23,18 @@ std::vector<ob::PairSetup> pair_setups(const PipelineGeometry& geometry,
   return pairs;
 }
 
+// The options with the reduction chosen for the grid (ObstacleStageOptions::reduced_px_per_rad).
+ObstacleStageOptions for_grid(const PipelineGeometry& geometry, ObstacleStageOptions options) {
+  if (options.reduced_px_per_rad < 0 || !std::isfinite(options.reduced_px_per_rad)) {
+    throw std::invalid_argument("reduced_px_per_rad must be >= 0");
+  }
+  if (options.reduced_px_per_rad > 0) {
+    options.obstacles.reduction =
+        std::max(1, static_cast<int>(std::lround(geometry.grid.f / options.reduced_px_per_rad)));
+  }
+  return options;
+}
+
 unsigned band_bits(Band band) {
   switch (band) {
     case Band::visible:
@@ -44,17 +56,17 @@ double horizontal_distance(const Eigen::Vector3d& p, const ob::GroundPlane& grou
 
 ObstacleStage::ObstacleStage(const PipelineGeometry& geometry, const ObstacleStageOptions& options)
     : geometry_(geometry),
-      options_(options),
-      detector_(geometry.grid, pair_setups(geometry, options), geometry.T_ref_reporting,
-                options.mounting, options.obstacles),
+      options_(for_grid(geometry, options)),
+      detector_(geometry.grid, pair_setups(geometry, options_), geometry.T_ref_reporting,
+                options_.mounting, options_.obstacles),
       prior_reporting_(
           ob::plane_in_frame(ob::prior_plane(options.mounting), geometry.T_ref_reporting)) {
   R_reporting_rect_ =
       (geometry.T_ref_reporting.inverse() * geometry.visible.T_ref_left_rect).rotation();
-  if (!(options.merge_overlap > 0 && options.merge_overlap <= 1)) {
+  if (!(options_.merge_overlap > 0 && options_.merge_overlap <= 1)) {
     throw std::invalid_argument("merge_overlap must be in (0, 1]");
   }
-  if (!(options.merge_tolerance_m >= 0) || !(options.merge_tolerance_share >= 0)) {
+  if (!(options_.merge_tolerance_m >= 0) || !(options_.merge_tolerance_share >= 0)) {
     throw std::invalid_argument("merge tolerances must be >= 0");
   }
 }

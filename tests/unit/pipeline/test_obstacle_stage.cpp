@@ -175,6 +175,21 @@ TEST(ObstacleStage, ATargetWithANonFinitePositionIsRefused) {
   EXPECT_THROW(stage().report(result_with({}, 60.0f), {t}), std::invalid_argument);
 }
 
+TEST(ObstacleStage, TheReductionFollowsTheGridSoTheCostDoesNot) {
+  EXPECT_EQ(stage().options().obstacles.reduction, 2);  // the pipeline grid, 417 px/rad
+  const auto rig = thermovis::runtime::load_rig(thermovis::runtime::default_rig_path());
+  pl::GridOptions full;
+  full.scale = 1.0;
+  const pl::ObstacleStage on_full(pl::make_geometry(rig, full));
+  EXPECT_EQ(on_full.options().obstacles.reduction, 4);
+  EXPECT_NEAR(on_full.detector().reduced_grid(ob::PairBand::visible).width,
+              stage().detector().reduced_grid(ob::PairBand::visible).width, 1);
+  pl::ObstacleStageOptions fixed;
+  fixed.reduced_px_per_rad = 0;
+  fixed.obstacles.reduction = 3;
+  EXPECT_EQ(pl::ObstacleStage(geometry(), fixed).options().obstacles.reduction, 3);
+}
+
 TEST(ObstacleStage, NeitherPairIsRefused) {
   pl::ObstacleStageOptions o;
   o.visible = false;

@@ -25,6 +25,10 @@ struct ObstacleStageOptions {
   // (the ground search's prior; the simulated scenes' rig is level at 1.4 m).
   obstacle::GroundPrior mounting;
   obstacle::ObstacleOptions obstacles;
+  // The reduced grid's resolution, px per rad: obstacles.reduction is chosen from the grid to
+  // come nearest to it (2 on the pipeline grid of 417 px/rad, 4 on the full grid of 835), so
+  // that the stage's cost does not grow with --grid-scale. 0: obstacles.reduction as given.
+  double reduced_px_per_rad = 208.0;
   bool visible = true;   // search the visible pair
   bool infrared = true;  // search the infrared pair
   // A stixel obstacle is merged into a ranged target when this share of its box lies in the
@@ -65,6 +69,7 @@ struct ObstacleReport {
 class ObstacleStage {
  public:
   // Throws std::invalid_argument for neither pair, a prior that is not one or bad options.
+  // options().obstacles.reduction is the one used (reduced_px_per_rad applied).
   ObstacleStage(const PipelineGeometry& geometry, const ObstacleStageOptions& options = {});
   const ObstacleStageOptions& options() const { return options_; }
   const obstacle::ObstacleDetector& detector() const { return detector_; }
