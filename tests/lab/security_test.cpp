@@ -1,13 +1,17 @@
 // DDS Security (deploy/dds/secure.xml, material from deploy/security/make-security.sh) on one
-// host of a lab (its own network namespace, so the test's UDP traffic stays in it): the pipeline
-// runs with every service authenticated and access-controlled; a participant without a
-// certificate neither receives ranges nor gets its detections read; an identity allowed to
-// publish ranges only cannot publish frames.
+// host of a lab (its own network namespace, so the test's UDP traffic stays in it):
+// - the pipeline runs with every service authenticated and access-controlled; a participant
+//   without a certificate neither receives ranges nor gets its detections read; an identity
+//   allowed to publish ranges only cannot publish frames;
+// - every start of the secured pipeline with all its services at once ranges, with no retry
+//   (THERMOVIS_SECURITY_STARTS starts, default 5; 20 for a measurement).
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <csignal>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
@@ -37,12 +41,14 @@ using Clock = std::chrono::steady_clock;
 using thermovis::test::ChildProcess;
 namespace tv = thermovis;
 
+// A participant of `profile` in `file` (default: the shipped file of that profile).
 std::unique_ptr<tv::transport::Participant> participant(int domain, const std::string& profile,
-                                                        const std::string& name) {
+                                                        const std::string& name,
+                                                        const std::filesystem::path& file = {}) {
   tv::transport::ParticipantConfig pc;
   pc.domain_id = domain;
   pc.profile = profile;
-  pc.profiles_file = tv::transport::shipped_profile_file(profile);
+  pc.profiles_file = file.empty() ? tv::transport::shipped_profile_file(profile) : file;
   pc.name = name;
   return std::make_unique<tv::transport::Participant>(pc);
 }
@@ -140,20 +146,62 @@ std::vector<double> range_hops(tv::transport::Reader<tv::RangeArray>& ranges, in
 
 double median(const std::vector<double>& sorted) { return sorted[sorted.size() / 2]; }
 
+// The CA, identities and documents of deploy/security/make-security.sh in `dir`/security.
+std::filesystem::path make_material(const std::filesystem::path& dir) {
+  ChildProcess make(
+      {"/bin/bash", (thermovis::test::source_root() / "deploy/security/make-security.sh").string(),
+       "--out", (dir / "security").string()},
+      dir / "make-security.log");
+  const auto code = make.wait(120s);
+  if (code != 0) throw std::runtime_error("make-security.sh failed:\n" + make.log());
+  return dir / "security";
+}
+
+// A participant profile in a file of its own for a participant without security that finds the
+// secured participants as they find each other (unicast to the ports of this host, secure.xml).
+// Each call makes a new profile name: Fast DDS keeps every loaded profile for the process.
+std::pair<std::filesystem::path, std::string> stranger_profile(const std::filesystem::path& dir) {
+  static std::atomic<int> counter{0};
+  const std::string name = "thermovis_test_stranger_" + std::to_string(counter++);
+  std::string xml = R"(<?xml version="1.0" encoding="UTF-8"?>
+<dds xmlns="http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles">
+  <profiles>
+    <transport_descriptors>
+      <transport_descriptor>
+        <transport_id>NAME_udp</transport_id>
+        <type>UDPv4</type>
+        <maxInitialPeersRange>16</maxInitialPeersRange>
+      </transport_descriptor>
+    </transport_descriptors>
+    <participant profile_name="NAME">
+      <rtps>
+        <userTransports><transport_id>NAME_udp</transport_id></userTransports>
+        <useBuiltinTransports>false</useBuiltinTransports>
+        <builtin>
+          <initialPeersList>
+            <locator><udpv4><address>127.0.0.1</address></udpv4></locator>
+          </initialPeersList>
+        </builtin>
+      </rtps>
+    </participant>
+  </profiles>
+</dds>
+)";
+  for (std::size_t at; (at = xml.find("NAME")) != std::string::npos;) xml.replace(at, 4, name);
+  const auto file = dir / (name + ".xml");
+  std::ofstream(file) << xml;
+  return {file, name};
+}
+
 TEST(Security, PipelineRunsAuthenticatedAndStrangersNeitherReadNorInject) {
   std::string why;
   const auto lab = thermovis::test::Lab::make({"a"}, true, why);
   if (!lab) GTEST_SKIP() << why;
   const auto dir = thermovis::test::temp_dir("lab-security");
-  ChildProcess make(
-      {"/bin/bash", (thermovis::test::source_root() / "deploy/security/make-security.sh").string(),
-       "--out", (dir / "security").string()},
-      dir / "make-security.log");
-  ASSERT_EQ(make.wait(120s), 0) << make.log();
-  ::setenv("THERMOVIS_SECURITY_DIR", (dir / "security").c_str(), 1);
-  // The unsecured stage on a domain of its own: its departing participants are still announced
-  // for a while, and secured participants that start authenticating one of them as it leaves
-  // could stall (the secured stage's frames then never reached rectify-fuse in 2 of 5 runs).
+  const auto security = make_material(dir);
+  ::setenv("THERMOVIS_SECURITY_DIR", security.c_str(), 1);
+  // The unsecured stage on a domain of its own, so that the secured participants meet only
+  // each other, the consumer and the stranger.
   const int plain_domain = thermovis::test::second_private_domain();
   const int domain = thermovis::test::private_domain();
   const thermovis::test::NetnsScope on_a(lab->ns("a"));
@@ -173,43 +221,27 @@ TEST(Security, PipelineRunsAuthenticatedAndStrangersNeitherReadNorInject) {
     plain.stop();
   }
 
-  // An authenticated consumer, and a stranger with no certificate on the same domain.
+  // An authenticated consumer, and a stranger with no certificate on the same domain that
+  // announces itself to the secured participants and hears their announcements.
   const auto consumer = participant(domain, tv::transport::kSecureProfile, "thermovis-consumer");
   tv::transport::Reader<tv::RangeArray> ranges(*consumer, tv::transport::topics::kRanges,
                                                tv::transport::event_topic_qos(64));
-  const auto stranger = participant(domain, tv::transport::kUdpProfile, "stranger");
+  const auto [stranger_file, stranger_name] = stranger_profile(dir);
+  const auto stranger = participant(domain, stranger_name, "stranger", stranger_file);
   tv::transport::Reader<tv::RangeArray> stolen(*stranger, tv::transport::topics::kRanges,
                                                tv::transport::event_topic_qos(64));
   tv::transport::Writer<tv::DetectionArray> injected(*stranger, tv::transport::topics::kDetections,
                                                      tv::transport::event_topic_qos());
-  // Known issue (docs/LIMITS.md, security): a secured pipeline whose services all start at once
-  // sometimes never matches its bridge and rectify-fuse (the bridge publishes, rectify-fuse
-  // receives nothing; seen in about one CI run in three, cause not found). The stalled start is
-  // printed with every service's counts, and the pipeline started once more; a second stall
-  // fails the test.
-  std::unique_ptr<LabPipeline> secured_pipeline;
-  std::vector<double> secured_hops;
-  for (int attempt = 1; attempt <= 2; ++attempt) {
-    secured_pipeline = std::make_unique<LabPipeline>(
-        *lab, "a", domain, tv::transport::kSecureProfile, dir,
-        std::map<std::string, std::string>{{"THERMOVIS_SECURITY_DIR", (dir / "security")}});
-    secured_hops = range_hops(ranges, 30, attempt == 1 ? 90s : 150s);
-    if (secured_hops.size() >= 10u) break;
-    // Stopped first, so that each service's log ends with its counts (frames processed,
-    // dropped, answered): they say which stage never got its input.
-    secured_pipeline->stop();
-    const std::string logs = secured_pipeline->logs();
-    secured_pipeline.reset();
-    if (attempt == 2) {
-      FAIL() << "the secured pipeline gave " << secured_hops.size()
-             << " range arrays, twice; the second start's logs:\n"
-             << logs;
-    }
-    std::cout << "KNOWN ISSUE: the secured pipeline gave " << secured_hops.size()
-              << " range arrays in 90 s; starting it again. Its logs:\n"
-              << logs;
+  // All services at once; no retry (Security.EverySecuredStartRanges).
+  LabPipeline secured(
+      *lab, "a", domain, tv::transport::kSecureProfile, dir,
+      std::map<std::string, std::string>{{"THERMOVIS_SECURITY_DIR", security.string()}});
+  const std::vector<double> secured_hops = range_hops(ranges, 30, 60s);
+  if (secured_hops.size() < 10u) {
+    secured.stop();
+    FAIL() << "the secured pipeline gave " << secured_hops.size() << " range arrays in 60 s:\n"
+           << secured.logs();
   }
-  LabPipeline& secured = *secured_pipeline;
   const int secured_pools = data_sharing_pools_read(secured.pid("thermovis-rectify-fuse"));
   std::cout << "range -> consumer p50 on one host: unsecured " << median(plain_hops)
             << " ms, secured (encrypted) " << median(secured_hops) << " ms (" << plain_hops.size()
@@ -238,6 +270,66 @@ TEST(Security, PipelineRunsAuthenticatedAndStrangersNeitherReadNorInject) {
       std::runtime_error);
 
   secured.stop();
+  ::unsetenv("THERMOVIS_SECURITY_DIR");
+  std::filesystem::remove_all(dir);
+}
+
+// How many times Security.EverySecuredStartRanges starts the pipeline.
+int secured_starts() {
+  const char* env = std::getenv("THERMOVIS_SECURITY_STARTS");
+  const int n = env != nullptr ? std::atoi(env) : 0;
+  return n > 0 ? n : 5;
+}
+
+// The secured pipeline started again and again with all its services at once, an authenticated
+// consumer on the domain the whole time: every start must range, with no retry. Fast DDS 2.9.1
+// can mix up the handshake endpoints of two peers that one participant discovers at once on
+// two receive threads; those two then never match (deploy/dds/secure.xml, which keeps
+// discovery on one socket for that).
+TEST(Security, EverySecuredStartRanges) {
+  std::string why;
+  const auto lab = thermovis::test::Lab::make({"a"}, true, why);
+  if (!lab) GTEST_SKIP() << why;
+  const auto dir = thermovis::test::temp_dir("lab-security-starts");
+  const auto security = make_material(dir);
+  ::setenv("THERMOVIS_SECURITY_DIR", security.c_str(), 1);
+  const int domain = thermovis::test::private_domain();
+  const thermovis::test::NetnsScope on_a(lab->ns("a"));
+  const auto consumer = participant(domain, tv::transport::kSecureProfile, "thermovis-consumer");
+  tv::transport::Reader<tv::RangeArray> ranges(*consumer, tv::transport::topics::kRanges,
+                                               tv::transport::event_topic_qos(64));
+  const int starts = secured_starts();
+  std::vector<double> seconds;
+  for (int start = 1; start <= starts; ++start) {
+    const auto begin = Clock::now();
+    LabPipeline secured(
+        *lab, "a", domain, tv::transport::kSecureProfile, dir,
+        std::map<std::string, std::string>{{"THERMOVIS_SECURITY_DIR", security.string()}});
+    const auto hops = range_hops(ranges, 3, 60s);
+    const double took = std::chrono::duration<double>(Clock::now() - begin).count();
+    const int pools = data_sharing_pools_read(secured.pid("thermovis-rectify-fuse"));
+    // Stopped first, so that each service's log ends with its counts (frames processed,
+    // dropped, answered): they say which stage never got its input.
+    secured.stop();
+    if (hops.size() >= 3u) {
+      seconds.push_back(took);
+    } else {
+      ADD_FAILURE() << "start " << start << " of " << starts << ": " << hops.size()
+                    << " range arrays in 60 s; rectify-fuse maps " << pools
+                    << " data-sharing pools of the bridge; the services' logs:\n"
+                    << secured.logs();
+    }
+    ranges.take();
+  }
+  std::sort(seconds.begin(), seconds.end());
+  std::cout << "secured starts that ranged: " << seconds.size() << " of " << starts;
+  if (!seconds.empty()) {
+    std::cout << "; start to the third range array p50 " << median(seconds) << " s, max "
+              << seconds.back() << " s";
+  }
+  std::cout << "\n";
+  RecordProperty("secured_starts_ranged", std::to_string(seconds.size()));
+  RecordProperty("secured_starts", std::to_string(starts));
   ::unsetenv("THERMOVIS_SECURITY_DIR");
   std::filesystem::remove_all(dir);
 }
