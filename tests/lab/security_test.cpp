@@ -4,7 +4,10 @@
 //   without a certificate neither receives ranges nor gets its detections read; an identity
 //   allowed to publish ranges only cannot publish frames;
 // - every start of the secured pipeline with all its services at once ranges, with no retry
-//   (THERMOVIS_SECURITY_STARTS starts, default 5; 20 for a measurement).
+//   (THERMOVIS_SECURITY_STARTS starts, default 5; 20 for a measurement);
+// - a participant with an expired or revoked certificate, a certificate of another CA, or a
+//   permissions document signed by another CA or edited after signing neither receives ranges
+//   nor gets its ranges read.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -330,6 +333,184 @@ TEST(Security, EverySecuredStartRanges) {
   std::cout << "\n";
   RecordProperty("secured_starts_ranged", std::to_string(seconds.size()));
   RecordProperty("secured_starts", std::to_string(starts));
+  ::unsetenv("THERMOVIS_SECURITY_DIR");
+  std::filesystem::remove_all(dir);
+}
+
+// Material a participant is refused with, in folders under `dir`/refused (each a
+// THERMOVIS_SECURITY_DIR for the identities thermovis-consumer and thermovis-ranges-only):
+//   other-ca          certificates of another CA (identity_ca.cert.pem: that CA), the genuine
+//                     permissions
+//   forged-permissions  genuine certificates, governance and permissions signed by another CA
+//                     (permissions_ca.cert.pem: that CA)
+//   revoked           certificates of the genuine CA, then revoked in `security`/crl.pem; the
+//                     folder has no revocation list
+//   revoked-known     the same with the revocation list
+//   expired           certificates of the genuine CA valid in January 2020
+//   edited            genuine certificates, permissions edited after signing
+const char* const kRefusedMaterialScript = R"(set -euo pipefail
+g="$1" out="$2" make_security="$3"
+names=(thermovis-consumer thermovis-ranges-only)
+mkdir -p "$out" && cd "$out"
+mkdir other-ca forged-permissions revoked revoked-known expired edited
+openssl ecparam -name prime256v1 -genkey -noout -out forger.key.pem
+openssl req -x509 -new -key forger.key.pem -sha256 -days 30 -subj "/O=thermovis/CN=thermovis CA" \
+  -out forger.cert.pem
+cat >expired.cnf <<EOT
+[ ca ]
+default_ca = expired
+[ expired ]
+database = expired.txt
+new_certs_dir = .
+serial = expired.srl
+default_md = sha256
+policy = any
+preserve = yes
+[ any ]
+organizationName = supplied
+commonName = supplied
+EOT
+: >expired.txt
+echo 1000 >expired.srl
+issue() {  # FOLDER NAME CA-CERT CA-KEY [expired]
+  openssl ecparam -name prime256v1 -genkey -noout -out "$1/$2.key.pem"
+  openssl req -new -key "$1/$2.key.pem" -sha256 -subj "/O=thermovis/CN=$2" -out "$1/$2.csr.pem"
+  if [[ "${5:-}" == expired ]]; then
+    openssl ca -batch -config expired.cnf -cert "$3" -keyfile "$4" -in "$1/$2.csr.pem" -notext \
+      -startdate 20200101000000Z -enddate 20200131000000Z -out "$1/$2.cert.pem" 2>/dev/null
+  else
+    openssl x509 -req -in "$1/$2.csr.pem" -CA "$3" -CAkey "$4" -CAcreateserial -sha256 -days 30 \
+      -out "$1/$2.cert.pem" 2>/dev/null
+  fi
+  rm "$1/$2.csr.pem"
+}
+sign() {  # XML SIGNED CA-CERT CA-KEY
+  openssl smime -sign -text -in "$1" -out "$2" -signer "$3" -inkey "$4"
+}
+for n in "${names[@]}"; do
+  for f in other-ca revoked expired; do cp "$g/$n.permissions.p7s" "$f/"; done
+  issue other-ca "$n" forger.cert.pem forger.key.pem
+  issue revoked "$n" "$g/ca.cert.pem" "$g/ca.key.pem"
+  issue expired "$n" "$g/ca.cert.pem" "$g/ca.key.pem" expired
+  for f in forged-permissions edited; do cp "$g/$n.cert.pem" "$g/$n.key.pem" "$f/"; done
+  sign "$g/$n.permissions.xml" "forged-permissions/$n.permissions.p7s" forger.cert.pem forger.key.pem
+  sed 's#<topic>thermovis/ranges</topic>#<topic>thermovis/*</topic>#' "$g/$n.permissions.p7s" \
+    >"edited/$n.permissions.p7s"
+  cmp -s "$g/$n.permissions.p7s" "edited/$n.permissions.p7s" && { echo "nothing edited" >&2; exit 1; }
+done
+for f in other-ca forged-permissions revoked expired edited; do cp "$g/ca.cert.pem" "$f/"; done
+for f in other-ca revoked expired edited; do cp "$g/governance.p7s" "$f/"; done
+cp forger.cert.pem other-ca/identity_ca.cert.pem
+cp forger.cert.pem forged-permissions/permissions_ca.cert.pem
+sign "$g/governance.xml" forged-permissions/governance.p7s forger.cert.pem forger.key.pem
+bash "$make_security" --out "$g" --revoke revoked/thermovis-consumer.cert.pem \
+  --revoke revoked/thermovis-ranges-only.cert.pem
+cp -r revoked/. revoked-known/
+cp "$g/crl.pem" revoked-known/
+)";
+
+// A participant with `folder`'s material for `name`, or null when it cannot be made.
+std::unique_ptr<tv::transport::Participant> participant_with(const std::filesystem::path& folder,
+                                                             int domain, const std::string& name,
+                                                             std::string& error) {
+  const char* before = std::getenv("THERMOVIS_SECURITY_DIR");
+  const std::string restore = before != nullptr ? before : "";
+  ::setenv("THERMOVIS_SECURITY_DIR", folder.c_str(), 1);
+  std::unique_ptr<tv::transport::Participant> p;
+  try {
+    p = participant(domain, tv::transport::kSecureProfile, name);
+  } catch (const std::exception& e) {
+    error = e.what();
+  }
+  ::setenv("THERMOVIS_SECURITY_DIR", restore.c_str(), 1);
+  return p;
+}
+
+TEST(Security, RefusedMaterialNeitherReadsNorIsRead) {
+  std::string why;
+  const auto lab = thermovis::test::Lab::make({"a"}, true, why);
+  if (!lab) GTEST_SKIP() << why;
+  const auto dir = thermovis::test::temp_dir("lab-security-refused");
+  const auto security = make_material(dir);
+  ChildProcess refused_script(
+      {"/bin/bash", "-c", kRefusedMaterialScript, "refused-material", security.string(),
+       (dir / "refused").string(),
+       (thermovis::test::source_root() / "deploy/security/make-security.sh").string()},
+      dir / "refused-material.log");
+  ASSERT_EQ(refused_script.wait(120s), 0) << refused_script.log();
+  const auto refused = dir / "refused";
+  ::setenv("THERMOVIS_SECURITY_DIR", security.c_str(), 1);
+  const int domain = thermovis::test::private_domain();
+  const thermovis::test::NetnsScope on_a(lab->ns("a"));
+
+  // The secured pipeline (which reads crl.pem) and its genuine consumer.
+  const auto consumer = participant(domain, tv::transport::kSecureProfile, "thermovis-consumer");
+  tv::transport::Reader<tv::RangeArray> ranges(*consumer, tv::transport::topics::kRanges,
+                                               tv::transport::event_topic_qos(64));
+  LabPipeline secured(
+      *lab, "a", domain, tv::transport::kSecureProfile, dir,
+      std::map<std::string, std::string>{{"THERMOVIS_SECURITY_DIR", security.string()}});
+  ASSERT_GE(range_hops(ranges, 3, 60s).size(), 3u) << secured.logs();
+
+  // Material that its own participant already refuses (Fast DDS checks its certificate
+  // against the CA and the revocation list, and the signature of its documents, when it starts).
+  for (const std::string folder : {"expired", "revoked-known", "edited"}) {
+    for (const std::string name : {"thermovis-consumer", "thermovis-ranges-only"}) {
+      std::string error;
+      EXPECT_EQ(participant_with(refused / folder, domain, name, error), nullptr)
+          << folder << "/" << name << " made a participant";
+      EXPECT_NE(error.find("cannot create DDS participant"), std::string::npos) << error;
+    }
+  }
+
+  // Material that starts but that the genuine participants refuse: readers of ranges under the
+  // consumer's name, then writers of ranges under the name that may publish them (an intruder
+  // may match another with the same forged trust, so one kind at a time). "genuine" is the
+  // control: the same participant with the genuine material.
+  const std::vector<std::string> folders{"other-ca", "forged-permissions", "revoked", "genuine"};
+  for (const bool reading : {true, false}) {
+    const std::string name = reading ? "thermovis-consumer" : "thermovis-ranges-only";
+    std::vector<std::unique_ptr<tv::transport::Participant>> participants;
+    std::vector<std::unique_ptr<tv::transport::Reader<tv::RangeArray>>> readers;
+    std::vector<std::unique_ptr<tv::transport::Writer<tv::RangeArray>>> writers;
+    for (const auto& folder : folders) {
+      std::string error;
+      participants.push_back(
+          participant_with(folder == "genuine" ? security : refused / folder, domain, name, error));
+      ASSERT_TRUE(participants.back()) << folder << "/" << name << ": " << error;
+      if (reading) {
+        readers.push_back(std::make_unique<tv::transport::Reader<tv::RangeArray>>(
+            *participants.back(), tv::transport::topics::kRanges,
+            tv::transport::event_topic_qos(64)));
+      } else {
+        writers.push_back(std::make_unique<tv::transport::Writer<tv::RangeArray>>(
+            *participants.back(), tv::transport::topics::kRanges,
+            tv::transport::event_topic_qos()));
+      }
+    }
+    // The control matches within seconds (a genuine start ranges within 3 s); then as long
+    // again for the others, while the pipeline keeps ranging to its consumer.
+    const auto begin = Clock::now();
+    const bool control = reading ? readers.back()->wait_for_writers(1, 30s)
+                                 : writers.back()->wait_for_readers(1, 30s);
+    EXPECT_TRUE(control) << "the genuine " << name << " matched nobody";
+    ranges.take();
+    const auto delivered = range_hops(
+        ranges, 1000, std::chrono::duration_cast<std::chrono::seconds>(Clock::now() - begin) + 3s);
+    EXPECT_GE(delivered.size(), 20u) << "the pipeline stopped ranging to its consumer";
+    for (std::size_t i = 0; i + 1 < folders.size(); ++i) {
+      if (reading) {
+        EXPECT_EQ(readers[i]->take().size(), 0u) << folders[i] << ": ranges read";
+        EXPECT_FALSE(readers[i]->wait_for_writers(1, 100ms)) << folders[i] << ": matched a writer";
+      } else {
+        EXPECT_FALSE(writers[i]->wait_for_readers(1, 100ms)) << folders[i] << ": ranges read";
+      }
+    }
+    if (reading) {
+      EXPECT_GT(readers.back()->take().size(), 0u) << "the genuine consumer read nothing";
+    }
+  }
+  secured.stop();
   ::unsetenv("THERMOVIS_SECURITY_DIR");
   std::filesystem::remove_all(dir);
 }
