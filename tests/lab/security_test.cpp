@@ -7,7 +7,7 @@
 //   (THERMOVIS_SECURITY_STARTS starts, default 5; 20 for a measurement);
 // - a participant with an expired or revoked certificate, a certificate of another CA, or a
 //   permissions document signed by another CA or edited after signing neither receives ranges
-//   nor gets its ranges read.
+//   nor gets its ranges read (one that cannot start with its material is not created).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -24,6 +24,7 @@
 #include <sstream>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "lab_harness.hpp"
@@ -347,12 +348,15 @@ TEST(Security, EverySecuredStartRanges) {
 //                     folder has no revocation list
 //   revoked-known     the same with the revocation list
 //   expired           certificates of the genuine CA valid in January 2020
+//   expiring          certificates of the genuine CA that expire 6 s (thermovis-ranges-only)
+//                     and 12 s (thermovis-consumer) after the script; `expiring/ends` says when
+//                     (name, seconds since the epoch)
 //   edited            genuine certificates, permissions edited after signing
-const char* const kRefusedMaterialScript = R"(set -euo pipefail
+const char* const kRefusedMaterialScript = R"sh(set -euo pipefail
 g="$1" out="$2" make_security="$3"
 names=(thermovis-consumer thermovis-ranges-only)
 mkdir -p "$out" && cd "$out"
-mkdir other-ca forged-permissions revoked revoked-known expired edited
+mkdir other-ca forged-permissions revoked revoked-known expired expiring edited
 openssl ecparam -name prime256v1 -genkey -noout -out forger.key.pem
 openssl req -x509 -new -key forger.key.pem -sha256 -days 30 -subj "/O=thermovis/CN=thermovis CA" \
   -out forger.cert.pem
@@ -366,18 +370,19 @@ serial = expired.srl
 default_md = sha256
 policy = any
 preserve = yes
+unique_subject = no
 [ any ]
 organizationName = supplied
 commonName = supplied
 EOT
 : >expired.txt
 echo 1000 >expired.srl
-issue() {  # FOLDER NAME CA-CERT CA-KEY [expired]
+issue() {  # FOLDER NAME CA-CERT CA-KEY [START END (openssl ca dates)]
   openssl ecparam -name prime256v1 -genkey -noout -out "$1/$2.key.pem"
   openssl req -new -key "$1/$2.key.pem" -sha256 -subj "/O=thermovis/CN=$2" -out "$1/$2.csr.pem"
-  if [[ "${5:-}" == expired ]]; then
+  if (($# > 4)); then
     openssl ca -batch -config expired.cnf -cert "$3" -keyfile "$4" -in "$1/$2.csr.pem" -notext \
-      -startdate 20200101000000Z -enddate 20200131000000Z -out "$1/$2.cert.pem" 2>/dev/null
+      -startdate "$5" -enddate "$6" -out "$1/$2.cert.pem" 2>/dev/null
   else
     openssl x509 -req -in "$1/$2.csr.pem" -CA "$3" -CAkey "$4" -CAcreateserial -sha256 -days 30 \
       -out "$1/$2.cert.pem" 2>/dev/null
@@ -388,18 +393,18 @@ sign() {  # XML SIGNED CA-CERT CA-KEY
   openssl smime -sign -text -in "$1" -out "$2" -signer "$3" -inkey "$4"
 }
 for n in "${names[@]}"; do
-  for f in other-ca revoked expired; do cp "$g/$n.permissions.p7s" "$f/"; done
+  for f in other-ca revoked expired expiring; do cp "$g/$n.permissions.p7s" "$f/"; done
   issue other-ca "$n" forger.cert.pem forger.key.pem
   issue revoked "$n" "$g/ca.cert.pem" "$g/ca.key.pem"
-  issue expired "$n" "$g/ca.cert.pem" "$g/ca.key.pem" expired
+  issue expired "$n" "$g/ca.cert.pem" "$g/ca.key.pem" 20200101000000Z 20200131000000Z
   for f in forged-permissions edited; do cp "$g/$n.cert.pem" "$g/$n.key.pem" "$f/"; done
   sign "$g/$n.permissions.xml" "forged-permissions/$n.permissions.p7s" forger.cert.pem forger.key.pem
   sed 's#<topic>thermovis/ranges</topic>#<topic>thermovis/*</topic>#' "$g/$n.permissions.p7s" \
     >"edited/$n.permissions.p7s"
   cmp -s "$g/$n.permissions.p7s" "edited/$n.permissions.p7s" && { echo "nothing edited" >&2; exit 1; }
 done
-for f in other-ca forged-permissions revoked expired edited; do cp "$g/ca.cert.pem" "$f/"; done
-for f in other-ca revoked expired edited; do cp "$g/governance.p7s" "$f/"; done
+for f in other-ca forged-permissions revoked expired expiring edited; do cp "$g/ca.cert.pem" "$f/"; done
+for f in other-ca revoked expired expiring edited; do cp "$g/governance.p7s" "$f/"; done
 cp forger.cert.pem other-ca/identity_ca.cert.pem
 cp forger.cert.pem forged-permissions/permissions_ca.cert.pem
 sign "$g/governance.xml" forged-permissions/governance.p7s forger.cert.pem forger.key.pem
@@ -407,7 +412,14 @@ bash "$make_security" --out "$g" --revoke revoked/thermovis-consumer.cert.pem \
   --revoke revoked/thermovis-ranges-only.cert.pem
 cp -r revoked/. revoked-known/
 cp "$g/crl.pem" revoked-known/
-)";
+now=$(date -u +%s)
+stamp() { date -u -d "@$1" +%Y%m%d%H%M%SZ; }
+for pair in thermovis-ranges-only:6 thermovis-consumer:12; do
+  n="${pair%%:*}" end=$((now + ${pair##*:}))
+  issue expiring "$n" "$g/ca.cert.pem" "$g/ca.key.pem" "$(stamp $((now - 60)))" "$(stamp "$end")"
+  echo "$n $end" >>expiring/ends
+done
+)sh";
 
 // A participant with `folder`'s material for `name`, or null when it cannot be made.
 std::unique_ptr<tv::transport::Participant> participant_with(const std::filesystem::path& folder,
@@ -442,6 +454,31 @@ TEST(Security, RefusedMaterialNeitherReadsNorIsRead) {
   ::setenv("THERMOVIS_SECURITY_DIR", security.c_str(), 1);
   const int domain = thermovis::test::private_domain();
   const thermovis::test::NetnsScope on_a(lab->ns("a"));
+
+  // Certificates that expire while their participants run, before any genuine participant is
+  // there to meet them: thermovis-ranges-only's first, then thermovis-consumer's, which starts
+  // once the other's has expired, so that the two do not authenticate each other either.
+  std::map<std::string, std::chrono::system_clock::time_point> expires;
+  {
+    std::ifstream ends(refused / "expiring/ends");
+    std::string name;
+    for (long long at = 0; ends >> name >> at;)
+      expires[name] = std::chrono::system_clock::time_point(std::chrono::seconds(at));
+  }
+  ASSERT_EQ(expires.size(), 2u);
+  std::string expiring_error;
+  const auto expiring_writing =
+      participant_with(refused / "expiring", domain, "thermovis-ranges-only", expiring_error);
+  ASSERT_TRUE(expiring_writing) << expiring_error;
+  tv::transport::Writer<tv::RangeArray> expiring_writer(
+      *expiring_writing, tv::transport::topics::kRanges, tv::transport::event_topic_qos());
+  std::this_thread::sleep_until(expires["thermovis-ranges-only"] + 1s);
+  const auto expiring_reading =
+      participant_with(refused / "expiring", domain, "thermovis-consumer", expiring_error);
+  ASSERT_TRUE(expiring_reading) << expiring_error;
+  tv::transport::Reader<tv::RangeArray> expiring_reader(
+      *expiring_reading, tv::transport::topics::kRanges, tv::transport::event_topic_qos(64));
+  std::this_thread::sleep_until(expires["thermovis-consumer"] + 1s);
 
   // The secured pipeline (which reads crl.pem) and its genuine consumer.
   const auto consumer = participant(domain, tv::transport::kSecureProfile, "thermovis-consumer");
@@ -510,6 +547,10 @@ TEST(Security, RefusedMaterialNeitherReadsNorIsRead) {
       EXPECT_GT(readers.back()->take().size(), 0u) << "the genuine consumer read nothing";
     }
   }
+  // The participants whose certificates expired meanwhile.
+  EXPECT_EQ(expiring_reader.take().size(), 0u) << "expiring: ranges read";
+  EXPECT_FALSE(expiring_reader.wait_for_writers(1, 100ms)) << "expiring: matched a writer";
+  EXPECT_FALSE(expiring_writer.wait_for_readers(1, 100ms)) << "expiring: ranges read";
   secured.stop();
   ::unsetenv("THERMOVIS_SECURITY_DIR");
   std::filesystem::remove_all(dir);
