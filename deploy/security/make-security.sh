@@ -3,10 +3,15 @@
 # Access-Permissions, AES-GCM-GMAC), made with openssl into one folder:
 #
 #   make-security.sh [--out DIR] [--days N] [--domains 0-232] [IDENTITY...]
+#   make-security.sh [--out DIR] --revoke NAME|CERT.pem [--revoke ...]
 #
 # DIR: default $THERMOVIS_SECURITY_DIR, else ./thermovis-security.
 #
 #   ca.key.pem, ca.cert.pem        the CA (ECDSA P-256) that signs identities and documents
+#   crl.pem                        the CA's certificate revocation list, valid --days: every
+#                                  participant refuses a peer whose certificate is on it, and
+#                                  does not start with such a certificate of its own
+#   ca.cnf, revoked.txt, crl.txt   the CA's bookkeeping for crl.pem (openssl ca)
 #   governance.xml / .p7s          the domain rules, signed (S/MIME) by the CA
 #   NAME.key.pem, NAME.cert.pem    one identity per participant name (the services use their
 #                                  executable name: thermovis-bridge, ...)
@@ -24,19 +29,26 @@
 # they travel by data-sharing (a pointer into shared memory, which encryption cannot cover), and
 # encrypting 12.5 MB per frame on another host costs more than the link (README).
 #
+# --revoke puts certificates on crl.pem (an identity's current NAME.cert.pem, or any certificate
+# file this CA signed) and changes nothing else; copy crl.pem to the hosts and restart their
+# services (a participant reads the list when it starts).
+#
 # The private keys are written 0600; keep the CA key off the vehicles. Re-running replaces the
-# identities and documents but keeps an existing CA (delete ca.*.pem to make a new one).
+# identities and documents but keeps an existing CA and its revocations (delete ca.*.pem to make
+# a new one).
 set -euo pipefail
 
 out="${THERMOVIS_SECURITY_DIR:-thermovis-security}"
 days=3650
 domains="0-232"
 identities=()
+revoke=()
 while (($#)); do
   case "$1" in
     --out) out="${2:?--out needs a folder}"; shift 2 ;;
     --days) days="${2:?--days needs a number}"; shift 2 ;;
     --domains) domains="${2:?--domains needs MIN-MAX}"; shift 2 ;;
+    --revoke) revoke+=("${2:?--revoke needs an identity or a certificate file}"); shift 2 ;;
     -h | --help) sed -n '2,/^set -euo/p' "$0" | sed -e '$d' -e 's/^# \{0,1\}//'; exit 0 ;;
     -*) echo "make-security.sh: unknown option $1" >&2; exit 2 ;;
     *) identities+=("$1"); shift ;;
@@ -48,11 +60,61 @@ dmin="${BASH_REMATCH[1]}" dmax="${BASH_REMATCH[2]}"
 ((${#identities[@]})) || identities=(thermovis-bridge thermovis-rectify-fuse thermovis-detect
   thermovis-match thermovis-range thermovis-supervisor thermovis-consumer thermovis-ranges-only)
 
+# Certificate files named relative to the caller's folder, before changing to DIR.
+revoke_files=()
+for r in "${revoke[@]}"; do
+  if [[ -f "$r" ]]; then
+    revoke_files+=("$(cd "$(dirname "$r")" && pwd)/$(basename "$r")")
+  else
+    revoke_files+=("$r")
+  fi
+done
+
 mkdir -p "$out"
 cd "$out"
 umask 077
 
+# The CA's revocation list, signed again after every change: `openssl ca` keeps the revoked
+# certificates in revoked.txt (its index) and the list's number in crl.txt.
+ca_config() {
+  cat >ca.cnf <<EOT
+[ ca ]
+default_ca = thermovis
+[ thermovis ]
+database = revoked.txt
+crlnumber = crl.txt
+default_md = sha256
+default_crl_days = $days
+unique_subject = no
+EOT
+  [[ -f revoked.txt ]] || : >revoked.txt
+  [[ -f crl.txt ]] || echo 1000 >crl.txt
+}
+write_crl() {
+  ca_config
+  openssl ca -config ca.cnf -gencrl -cert ca.cert.pem -keyfile ca.key.pem -out crl.pem 2>/dev/null
+  chmod 0644 crl.pem
+}
+
+if ((${#revoke_files[@]})); then
+  [[ -f ca.key.pem && -f ca.cert.pem ]] || { echo "make-security.sh: no CA in $(pwd)" >&2; exit 2; }
+  ca_config
+  for r in "${revoke_files[@]}"; do
+    cert="$r"
+    [[ -f "$cert" ]] || cert="$r.cert.pem"
+    [[ -f "$cert" ]] || { echo "make-security.sh: no certificate $r or $r.cert.pem" >&2; exit 2; }
+    openssl verify -CAfile ca.cert.pem "$cert" >/dev/null 2>&1 ||
+      { echo "make-security.sh: $cert is not signed by this CA" >&2; exit 2; }
+    openssl ca -config ca.cnf -revoke "$cert" -cert ca.cert.pem -keyfile ca.key.pem 2>/dev/null
+    echo "revoked $(openssl x509 -in "$cert" -noout -serial) ($(basename "$cert"))"
+  done
+  write_crl
+  echo "DDS Security revocation list $(pwd)/crl.pem: $(grep -c '^R' revoked.txt) revoked"
+  exit 0
+fi
+
 if [[ ! -f ca.key.pem || ! -f ca.cert.pem ]]; then
+  rm -f revoked.txt* crl.txt* crl.pem  # a new CA has revoked nothing
   openssl ecparam -name prime256v1 -genkey -noout -out ca.key.pem
   openssl req -x509 -new -key ca.key.pem -sha256 -days "$days" -subj "/O=thermovis/CN=thermovis CA" \
     -out ca.cert.pem
@@ -171,5 +233,6 @@ EOF
   } >"$id.permissions.xml"
   sign "$id.permissions"
 done
+write_crl
 chmod 0644 ./*.cert.pem ./*.xml ./*.p7s
-echo "DDS Security material in $(pwd): CA, governance, ${#identities[@]} identities"
+echo "DDS Security material in $(pwd): CA, revocation list, governance, ${#identities[@]} identities"

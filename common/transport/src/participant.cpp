@@ -102,8 +102,10 @@ std::string register_frame_flow_controller(dds::DomainParticipantQos& qos,
 }
 
 // A profile that enables the DDS Security plugins gets this participant's identity files:
-// $THERMOVIS_SECURITY_DIR/<name>.{cert,key}.pem and <name>.permissions.p7s, with the CA and the
-// governance of that folder (deploy/security/make-security.sh).
+// $THERMOVIS_SECURITY_DIR/<name>.{cert,key}.pem and <name>.permissions.p7s, with the CA, the
+// governance and, when there, the revocation list crl.pem of that folder
+// (deploy/security/make-security.sh). identity_ca.cert.pem / permissions_ca.cert.pem, when there,
+// stand for ca.cert.pem as the CA of the identities / of the signed documents.
 void add_security_files(dds::DomainParticipantQos& qos, const ParticipantConfig& config) {
   bool secure = false;
   for (const auto& property : qos.properties().properties())
@@ -128,13 +130,19 @@ void add_security_files(dds::DomainParticipantQos& qos, const ParticipantConfig&
     }
     return "file://" + path.string();
   };
+  auto either = [&](const std::string& leaf, const std::string& otherwise) {
+    return file(std::filesystem::is_regular_file(dir / leaf) ? leaf : otherwise);
+  };
   auto& properties = qos.properties().properties();
   const std::string auth = "dds.sec.auth.builtin.PKI-DH.";
   const std::string access = "dds.sec.access.builtin.Access-Permissions.";
-  properties.emplace_back(auth + "identity_ca", file("ca.cert.pem"));
+  properties.emplace_back(auth + "identity_ca", either("identity_ca.cert.pem", "ca.cert.pem"));
   properties.emplace_back(auth + "identity_certificate", file(config.name + ".cert.pem"));
   properties.emplace_back(auth + "private_key", file(config.name + ".key.pem"));
-  properties.emplace_back(access + "permissions_ca", file("ca.cert.pem"));
+  if (std::filesystem::is_regular_file(dir / "crl.pem"))
+    properties.emplace_back(auth + "identity_crl", file("crl.pem"));
+  properties.emplace_back(access + "permissions_ca",
+                          either("permissions_ca.cert.pem", "ca.cert.pem"));
   properties.emplace_back(access + "governance", file("governance.p7s"));
   properties.emplace_back(access + "permissions", file(config.name + ".permissions.p7s"));
 }
