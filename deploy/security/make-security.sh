@@ -20,11 +20,12 @@
 # Identities (default: every service, the supervisor, a "thermovis-consumer" that may read
 # ranges, and "thermovis-ranges-only" that may publish ranges and nothing else):
 #   thermovis-bridge thermovis-rectify-fuse thermovis-detect thermovis-match thermovis-range
-#   thermovis-supervisor thermovis-consumer thermovis-ranges-only
+#   thermovis-obstacles thermovis-supervisor thermovis-consumer thermovis-ranges-only
 # An identity not in that list gets no permission at all (default DENY).
 #
 # Governance: no unauthenticated participant joins; read and write access control on every
-# topic; the small topics (detections, matches, ranges, timing, health) signed and encrypted;
+# topic; the small topics (detections, matches, ranges, obstacles, timing, health) signed and
+# encrypted;
 # discovery signed. The frame topics are access-controlled but not encrypted: within one host
 # they travel by data-sharing (a pointer into shared memory, which encryption cannot cover), and
 # encrypting 12.5 MB per frame on another host costs more than the link (README).
@@ -58,7 +59,8 @@ command -v openssl >/dev/null || { echo "make-security.sh: openssl not found" >&
 [[ "$domains" =~ ^([0-9]+)-([0-9]+)$ ]] || { echo "make-security.sh: --domains MIN-MAX" >&2; exit 2; }
 dmin="${BASH_REMATCH[1]}" dmax="${BASH_REMATCH[2]}"
 ((${#identities[@]})) || identities=(thermovis-bridge thermovis-rectify-fuse thermovis-detect
-  thermovis-match thermovis-range thermovis-supervisor thermovis-consumer thermovis-ranges-only)
+  thermovis-match thermovis-range thermovis-obstacles thermovis-supervisor thermovis-consumer
+  thermovis-ranges-only)
 
 # Certificate files named relative to the caller's folder, before changing to DIR.
 revoke_files=()
@@ -132,6 +134,7 @@ publishes() {
     thermovis-detect) echo "thermovis/detections thermovis/health" ;;
     thermovis-match) echo "thermovis/matches thermovis/health" ;;
     thermovis-range) echo "thermovis/ranges thermovis/timing thermovis/health" ;;
+    thermovis-obstacles) echo "thermovis/obstacles thermovis/health" ;;
     thermovis-ranges-only) echo "thermovis/ranges" ;;
   esac
 }
@@ -141,8 +144,9 @@ subscribes() {
     thermovis-detect) echo "thermovis/geometry thermovis/rectified/* thermovis/fused" ;;
     thermovis-match) echo "thermovis/geometry thermovis/detections thermovis/rectified/* thermovis/fused" ;;
     thermovis-range) echo "thermovis/geometry thermovis/matches" ;;
+    thermovis-obstacles) echo "thermovis/geometry thermovis/rectified/* thermovis/ranges" ;;
     thermovis-supervisor) echo "thermovis/health thermovis/timing thermovis/ranges" ;;
-    thermovis-consumer) echo "thermovis/ranges" ;;
+    thermovis-consumer) echo "thermovis/ranges thermovis/obstacles" ;;
   esac
 }
 
