@@ -1,8 +1,15 @@
 // thermovis bench pipeline: every service at the capture rate on full-resolution simulated
 // frames; end-to-end and per-stage latency, CPU and memory per process, drops, deadline misses
-// and the ranging error against the simulated truth, after a warm-up.
+// and the ranging error against the simulated truth, after a warm-up. With --external-readers N
+// the same again with N other DDS applications reading every frame topic, beside the run
+// without them.
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <iomanip>
 #include <iostream>
 #include <map>
@@ -19,6 +26,7 @@
 #include "display_session.hpp"
 #include "pipeline_session.hpp"
 #include "thermovis/node/service.hpp"
+#include "thermovis/transport/topics.hpp"
 
 namespace {
 
@@ -30,7 +38,74 @@ struct Options {
   std::vector<std::string> kill;  // services to kill (SIGKILL) once each during the measurement
   bool view = false;              // the live display beside the pipeline (implied by a browser)
   thermovis::cli::DisplayOptions display;
+  int external_readers = 0;  // other applications reading every frame topic (second measurement)
+  int external_hold_ms = 200;
 };
+
+// Other DDS applications reading every frame topic (build/bin/external_reader: Fast DDS's
+// default QoS, data-sharing from the writers' pools), in turn idle (matched, never taking), slow
+// (each frame held on its loan external_hold_ms) and crashing (SIGKILLed while holding loans,
+// a third of the way into the measurement). Killed when this goes.
+class ExternalReaders {
+ public:
+  ExternalReaders(int count, int domain, int hold_ms, double crash_after_s) {
+    const std::filesystem::path exe =
+        std::filesystem::canonical("/proc/self/exe").parent_path() / "external_reader";
+    if (!std::filesystem::exists(exe)) {
+      throw std::runtime_error(exe.string() + " not found (built with the benchmarks)");
+    }
+    static const char* const kModes[] = {"idle", "slow", "crash"};
+    for (int i = 0; i < count; ++i) {
+      const std::string mode = kModes[i % 3];
+      ++per_mode_[mode];
+      std::vector<std::string> args{exe.string(),
+                                    "--domain",
+                                    std::to_string(domain),
+                                    "--mode",
+                                    mode,
+                                    "--hold-ms",
+                                    std::to_string(hold_ms),
+                                    "--crash-after-s",
+                                    std::to_string(crash_after_s)};
+      for (const char* t :
+           {thermovis::transport::topics::kVisibleFrames,
+            thermovis::transport::topics::kInfraredFrames,
+            thermovis::transport::topics::kRectifiedVisible,
+            thermovis::transport::topics::kRectifiedInfrared, thermovis::transport::topics::kFused})
+        args.emplace_back(t);
+      const pid_t pid = ::fork();
+      if (pid < 0) throw std::runtime_error("fork failed");
+      if (pid == 0) {
+        std::vector<char*> argv;
+        for (auto& a : args) argv.push_back(a.data());
+        argv.push_back(nullptr);
+        // Its output would mix with the benchmark's.
+        std::freopen("/dev/null", "w", stdout);
+        ::execv(argv[0], argv.data());
+        ::_exit(127);
+      }
+      pids_.push_back(pid);
+    }
+  }
+  ~ExternalReaders() {
+    for (const pid_t pid : pids_) ::kill(pid, SIGKILL);
+    for (const pid_t pid : pids_) ::waitpid(pid, nullptr, 0);
+  }
+  const std::map<std::string, int>& per_mode() const { return per_mode_; }
+
+ private:
+  std::vector<pid_t> pids_;
+  std::map<std::string, int> per_mode_;
+};
+
+// One measurement's headline: the captures answered, latency and misses.
+nlohmann::json headline(const thermovis::supervisor::LatencySummary& l) {
+  return {{"frames", l.frames},
+          {"p50_ms", l.p50_ms},
+          {"p99_ms", l.p99_ms},
+          {"dropped", l.dropped},
+          {"deadline_misses", l.deadline_misses}};
+}
 
 // Runs the session (and the display, if any) for `seconds`, or until a stop signal; false when
 // stopped early.
@@ -119,6 +194,19 @@ int run_bench(const Options& opt) {
   run_for(session, display.get(), opt.warmup_s);
   session.reset_statistics();
   if (display) display->reset_statistics();
+  // With external readers: the measurement without them first, then theirs (the rest of this
+  // function) after they have matched.
+  std::optional<thermovis::supervisor::LatencySummary> without_readers;
+  std::unique_ptr<ExternalReaders> readers;
+  if (opt.external_readers > 0) {
+    run_for(session, display.get(), opt.seconds);
+    without_readers = session.latency();
+    readers = std::make_unique<ExternalReaders>(opt.external_readers, opt.session.domain,
+                                                opt.external_hold_ms, 3.0 + opt.seconds / 3);
+    run_for(session, display.get(), 3.0);
+    session.reset_statistics();
+    if (display) display->reset_statistics();
+  }
   // Kills spread evenly over the measured time, each with time to recover before the next.
   const double slice = opt.seconds / static_cast<double>(opt.kill.size() + 1);
   bool running = true;
@@ -174,8 +262,21 @@ int run_bench(const Options& opt) {
     }
     if (!opt.kill.empty()) j["outages"] = outages;
     if (!opt.display.browser.empty()) j["display"] = display_latency;
+    if (readers) {
+      j["external_readers"] = readers->per_mode();
+      j["without_external_readers"] = headline(*without_readers);
+    }
     std::cout << j.dump() << std::endl;
   } else {
+    if (readers) {
+      std::cout << "without external readers: frames " << without_readers->frames << ", p50 "
+                << std::fixed << std::setprecision(2) << without_readers->p50_ms << " ms, p99 "
+                << without_readers->p99_ms << " ms; dropped " << without_readers->dropped
+                << "; DEADLINE QoS misses " << without_readers->deadline_misses << "\nwith "
+                << opt.external_readers << " external readers of every frame topic (";
+      for (const auto& [mode, n] : readers->per_mode()) std::cout << n << " " << mode << " ";
+      std::cout << "):\n";
+    }
     std::cout << thermovis::supervisor::summary_text(latency, session.deadline_ms());
     for (const auto& p : cpu) {
       std::cout << "  process " << std::setw(13) << std::left << p.service << std::right << " cpu "
@@ -234,6 +335,15 @@ THERMOVIS_COMMAND("bench pipeline",
                         ->delimiter(',')
                         ->check(
                             CLI::IsMember({"bridge", "rectify-fuse", "detect", "match", "range"}));
+                    app.add_option("--external-readers", opt->external_readers,
+                                   "measure again with N other DDS applications reading every "
+                                   "frame topic (idle, slow, crashing in turn)")
+                        ->capture_default_str()
+                        ->check(CLI::Range(0, 64));
+                    app.add_option("--external-hold-ms", opt->external_hold_ms,
+                                   "how long a slow external reader holds each frame")
+                        ->capture_default_str()
+                        ->check(CLI::Range(0, 10000));
                     app.add_flag("--view", opt->view,
                                  "also run the live display (thermovis-view), as `run --view`");
                     app.add_option("--view-port", opt->display.port, "HTTP port of the display")
