@@ -25,6 +25,7 @@
 #include "command.hpp"
 #include "display_session.hpp"
 #include "pipeline_session.hpp"
+#include "thermovis/metrics/percentile.hpp"
 #include "thermovis/node/service.hpp"
 #include "thermovis/transport/topics.hpp"
 
@@ -97,6 +98,32 @@ class ExternalReaders {
   std::vector<pid_t> pids_;
   std::map<std::string, int> per_mode_;
 };
+
+// The outages of the kills of each service (bench pipeline --kill a,a,a,b: several per service).
+struct ServiceOutages {
+  int kills = 0;
+  std::vector<double> outage_ms, first_fresh_ms;  // of the kills it recovered from
+  double median_outage_ms() const {
+    return outage_ms.empty() ? std::nan("") : thermovis::metrics::percentile(outage_ms, 50);
+  }
+  double median_first_fresh_ms() const {
+    return first_fresh_ms.empty() ? std::nan("")
+                                  : thermovis::metrics::percentile(first_fresh_ms, 50);
+  }
+};
+
+std::map<std::string, ServiceOutages> outages_by_service(
+    const std::vector<thermovis::cli::ServiceOutage>& outages) {
+  std::map<std::string, ServiceOutages> out;
+  for (const auto& o : outages) {
+    ServiceOutages& s = out[o.service];
+    ++s.kills;
+    if (!o.recovered) continue;
+    s.outage_ms.push_back(o.outage_ms);
+    s.first_fresh_ms.push_back(o.first_fresh_ms);
+  }
+  return out;
+}
 
 // One measurement's headline: the captures answered, latency and misses.
 nlohmann::json headline(const thermovis::supervisor::LatencySummary& l) {
@@ -255,10 +282,13 @@ int run_bench(const Options& opt) {
     j["pipeline_over_floor"] = number(budget.pipeline_ms / budget.floor_ms);
     j["linear_floor_cpu_ms"] = number(budget.linear_floor_ms);
     nlohmann::json outages = nlohmann::json::object();
-    for (const auto& o : session.outages()) {
-      outages[o.service] = o.recovered ? nlohmann::json{{"outage_ms", o.outage_ms},
-                                                        {"first_fresh_ms", o.first_fresh_ms}}
-                                       : nlohmann::json{{"outage_ms", nullptr}};
+    for (const auto& [service, o] : outages_by_service(session.outages())) {
+      outages[service] = {{"kills", o.kills},
+                          {"recovered", o.outage_ms.size()},
+                          {"outage_ms", o.outage_ms},
+                          {"first_fresh_ms", o.first_fresh_ms},
+                          {"median_outage_ms", number(o.median_outage_ms())},
+                          {"median_first_fresh_ms", number(o.median_first_fresh_ms())}};
     }
     if (!opt.kill.empty()) j["outages"] = outages;
     if (!opt.display.browser.empty()) j["display"] = display_latency;
@@ -296,6 +326,13 @@ int run_bench(const Options& opt) {
               << " x floor; with INTER_LINEAR " << std::setprecision(2) << budget.linear_floor_ms
               << " ms: " << std::setprecision(1) << budget.pipeline_ms / budget.linear_floor_ms
               << " x\n";
+    for (const auto& [service, o] : outages_by_service(session.outages())) {
+      if (o.kills < 2) continue;
+      std::cout << "  " << service << ": killed " << o.kills << " times, recovered "
+                << o.outage_ms.size() << "; median outage " << std::setprecision(0)
+                << o.median_outage_ms() << " ms, median first range of a new capture "
+                << o.median_first_fresh_ms() << " ms after the kill\n";
+    }
     for (const auto& o : session.outages()) {
       if (o.recovered) {
         std::cout << "  killed " << std::setw(12) << std::left << o.service << std::right
@@ -331,7 +368,9 @@ THERMOVIS_COMMAND("bench pipeline",
                     app.add_flag("--json", opt->json, "one JSON object");
                     app.add_option("--kill", opt->kill,
                                    "SERVICE[,SERVICE...]: kill each (SIGKILL) once, evenly "
-                                   "spread over the measured time; reports the outage of each")
+                                   "spread over the measured time (a service named N times: N "
+                                   "kills); reports the outage of each, and the median per "
+                                   "service")
                         ->delimiter(',')
                         ->check(
                             CLI::IsMember({"bridge", "rectify-fuse", "detect", "match", "range"}));
