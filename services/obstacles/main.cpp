@@ -60,8 +60,8 @@ int main(int argc, char** argv) {
     const auto s = node.stats();
     std::cerr << app.common.service << ": published " << s.processed << " (one pair only "
               << s.one_pair << ", without ranges " << s.without_ranges << "), bad " << s.bad
-              << ", overwritten while read " << s.overwritten << ", pairs without ground "
-              << s.no_ground << ", obstacles " << s.obstacles << " (ranged targets " << s.targets
-              << ")\n";
+              << ", overwritten while read " << s.overwritten << ", skipped " << s.skipped
+              << ", pairs without ground " << s.no_ground << ", obstacles " << s.obstacles
+              << " (ranged targets " << s.targets << ")\n";
   });
 }

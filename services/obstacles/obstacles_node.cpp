@@ -163,7 +163,9 @@ void ObstaclesNode::take_ranges() {
 
 void ObstaclesNode::take_frames(BandInput& input) {
   auto frames = input.reader.take();
-  for (std::size_t i = 0; i < frames.size(); ++i) {
+  // Behind (the CPU went to the target path): only the newest frame is worth the time.
+  if (frames.size() > 1) stats_.skipped += frames.size() - 1;
+  for (std::size_t i = frames.size() > 0 ? frames.size() - 1 : 0; i < frames.size(); ++i) {
     const GridStereoFrame& frame = frames[i];
     try {
       if (!input.sequence.admit(frame.seq(), frame.capture_time_ns(), health_)) continue;

@@ -45,6 +45,7 @@ struct ObstaclesStats {
   std::uint64_t without_ranges = 0;  // of which without their capture's ranges
   std::uint64_t bad = 0;             // frames or ranges rejected
   std::uint64_t overwritten = 0;     // frames reused by their writer while read (dropped)
+  std::uint64_t skipped = 0;         // frames left for a newer one (this service behind)
   std::uint64_t no_ground = 0;       // pairs searched that found no ground
   std::uint64_t obstacles = 0;       // obstacles published
   std::uint64_t targets = 0;         // of which ranged targets
