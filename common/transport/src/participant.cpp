@@ -106,11 +106,14 @@ std::string register_frame_flow_controller(dds::DomainParticipantQos& qos,
 // governance and, when there, the revocation list crl.pem of that folder
 // (deploy/security/make-security.sh). identity_ca.cert.pem / permissions_ca.cert.pem, when there,
 // stand for ca.cert.pem as the CA of the identities / of the signed documents.
-void add_security_files(dds::DomainParticipantQos& qos, const ParticipantConfig& config) {
-  bool secure = false;
+bool is_secure(const dds::DomainParticipantQos& qos) {
   for (const auto& property : qos.properties().properties())
-    if (property.name() == "dds.sec.auth.plugin") secure = true;
-  if (!secure) return;
+    if (property.name() == "dds.sec.auth.plugin") return true;
+  return false;
+}
+
+void add_security_files(dds::DomainParticipantQos& qos, const ParticipantConfig& config) {
+  if (!is_secure(qos)) return;
   const char* dir_env = std::getenv("THERMOVIS_SECURITY_DIR");
   if (dir_env == nullptr || *dir_env == '\0') {
     throw std::runtime_error("DDS profile '" + config.profile +
@@ -176,6 +179,18 @@ Participant::Participant(const ParticipantConfig& config) : state_(std::make_sha
           "DDS profile 'thermovis_discovery' needs ROS_DISCOVERY_SERVER=IP:PORT (the address of "
           "a running `fastdds discovery -i 0 -l IP -p PORT`)");
     }
+  }
+  if (qos.wire_protocol().participant_id < 0) {
+    // Ports no dead process left behind (fresh_participant_id); the secured profile announces
+    // itself to the ports of ids 0..15, the others to 0..31 (their initial peers' range).
+    const auto& port = qos.wire_protocol().port;
+    const int max_ids = is_secure(qos) ? 16 : 32;
+    qos.wire_protocol().participant_id = fresh_participant_id(
+        [&](int id) {
+          return port.portBase + port.domainIDGain * static_cast<std::uint32_t>(config.domain_id) +
+                 port.offsetd1 + port.participantIDGain * static_cast<std::uint32_t>(id);
+        },
+        max_ids);
   }
   state_->domain_id = config.domain_id;
   state_->profile = config.profile;

@@ -58,21 +58,62 @@ bool is_data_sharing_segment(const std::string& path) {
   return path.rfind("/dev/shm/fast_datasharing", 0) == 0;
 }
 
-StaleSegments remove_stale_data_sharing_segments(std::chrono::seconds min_age,
-                                                 const std::filesystem::path& shm_dir) {
+namespace {
+
+// The file names under /dev/shm starting with `prefix` that some live process maps.
+std::set<std::string> mapped_by_live_processes(const std::string& prefix) {
   namespace fs = std::filesystem;
-  // Every data-sharing segment some live process maps (its own pool or one it reads).
   std::set<std::string> in_use;
   std::error_code ec;
   for (const auto& proc : fs::directory_iterator("/proc", ec)) {
     const std::string pid = proc.path().filename().string();
     if (pid.empty() || pid.find_first_not_of("0123456789") != std::string::npos) continue;
     for (const auto& mapping : mappings((proc.path() / "maps").string())) {
-      if (mapping.path.find("fast_datasharing") != std::string::npos) {
-        in_use.insert(fs::path(mapping.path).filename().string());
-      }
+      const std::string name = fs::path(mapping.path).filename().string();
+      if (name.rfind(prefix, 0) == 0) in_use.insert(name);
     }
   }
+  return in_use;
+}
+
+}  // namespace
+
+int fresh_participant_id(const std::function<std::uint32_t(int)>& metatraffic_port, int max_ids,
+                         std::chrono::seconds min_age, const std::filesystem::path& shm_dir) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  if (!fs::is_directory(shm_dir, ec)) return -1;
+  const std::set<std::string> in_use = mapped_by_live_processes("fastrtps_port");
+  const auto now = fs::file_time_type::clock::now();
+  // False when the port's file is there and in use (or too new to tell); a stale one is removed.
+  const auto port_free = [&](std::uint32_t port) {
+    const std::string name = "fastrtps_port" + std::to_string(port);
+    const fs::path file = shm_dir / name;
+    if (!fs::exists(file, ec)) return true;
+    if (in_use.count(name) > 0) return false;
+    std::error_code stat_error;
+    const auto modified = fs::last_write_time(file, stat_error);
+    if (stat_error || now - modified < min_age) return false;
+    fs::remove(file, stat_error);
+    fs::remove(shm_dir / (name + "_el"), stat_error);
+    return !fs::exists(file, ec);
+  };
+  for (int id = 0; id < max_ids; ++id) {
+    const std::uint32_t port = metatraffic_port(id);
+    // Both unicast ports (metatraffic, user: the next number), each checked (and freed) first.
+    const bool metatraffic_free = port_free(port);
+    const bool user_free = port_free(port + 1);
+    if (metatraffic_free && user_free) return id;
+  }
+  return -1;
+}
+
+StaleSegments remove_stale_data_sharing_segments(std::chrono::seconds min_age,
+                                                 const std::filesystem::path& shm_dir) {
+  namespace fs = std::filesystem;
+  // Every data-sharing segment some live process maps (its own pool or one it reads).
+  const std::set<std::string> in_use = mapped_by_live_processes("fast_datasharing");
+  std::error_code ec;
   StaleSegments removed;
   const auto now = fs::file_time_type::clock::now();
   for (const auto& entry : fs::directory_iterator(shm_dir, ec)) {

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -41,6 +42,19 @@ struct StaleSegments {
 StaleSegments remove_stale_data_sharing_segments(
     std::chrono::seconds min_age = std::chrono::seconds(10),
     const std::filesystem::path& shm_dir = "/dev/shm");
+
+// The participant id a new participant on `domain` should take so that its two unicast
+// shared-memory ports (/dev/shm/fastrtps_port<metatraffic> and <metatraffic + 1>, from the
+// port numbering `port(id)` of the participant's QoS) are new files: the lowest id below
+// `max_ids` whose port files do not exist, after removing those that no live process maps and
+// that are older than `min_age` (a SIGKILLed process's). -1 when every id's ports are in use
+// (then Fast DDS's own choice). Fast DDS numbers each process's participants from 0 and moves a
+// busy port on; a service restarted after a SIGKILL so took its dead predecessor's ports, which
+// the SHM transport opens only after their health check has timed out (1 s per port): the
+// restart then stalled 2 s more.
+int fresh_participant_id(const std::function<std::uint32_t(int)>& metatraffic_port, int max_ids,
+                         std::chrono::seconds min_age = std::chrono::seconds(2),
+                         const std::filesystem::path& shm_dir = "/dev/shm");
 
 // Process-shared mutexes this process initialises are robust, and a lock that finds the holder
 // dead takes the mutex over (src/robust_mutex.cpp: Fast DDS's data-sharing notifications would
