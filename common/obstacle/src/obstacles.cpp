@@ -15,6 +15,7 @@ namespace {
 constexpr util::EnumName<PairBand> kBandNames[] = {{PairBand::visible, "visible"},
                                                    {PairBand::infrared, "infrared"}};
 constexpr float kNan = std::numeric_limits<float>::quiet_NaN();
+constexpr int kRightSteps = 16;  // the matchers' sub-pixel steps per px
 
 // Horizontal part of a point (along the ground whose downward normal is n), m.
 double horizontal_distance(const Eigen::Vector3d& p, const Eigen::Vector3d& n) {
@@ -106,6 +107,28 @@ ObstacleDetector::ObstacleDetector(const camera::RectifiedIntrinsics& grid,
         std::max(max_disparity_px_, range::max_disparity_for(p.reduced, options.min_distance_m));
     pairs_.push_back(std::move(p));
   }
+  // Each pair's angle tables for triangulate: its left columns, and its right eye's column
+  // c - d at the matchers' 1/16 px steps over the disparity range (other disparities computed).
+  for (Pair& p : pairs_) {
+    const camera::RectifiedCamera& g = p.reduced.grid;
+    const int width = g.intrinsics().width;
+    p.sin_left.resize(static_cast<std::size_t>(width));
+    p.cos_left.resize(p.sin_left.size());
+    for (int c = 0; c < width; ++c) {
+      const double alpha = g.alpha_of_column(c);
+      p.sin_left[static_cast<std::size_t>(c)] = std::sin(alpha);
+      p.cos_left[static_cast<std::size_t>(c)] = std::cos(alpha);
+    }
+    p.first_right_step = -kRightSteps * static_cast<int>(std::ceil(max_disparity_px_ + 16));
+    p.sin_right.resize(static_cast<std::size_t>(kRightSteps * width - p.first_right_step));
+    p.cos_right.resize(p.sin_right.size());
+    for (std::size_t i = 0; i < p.sin_right.size(); ++i) {
+      const double a = g.alpha_of_column(
+          static_cast<double>(static_cast<int>(i) + p.first_right_step) / kRightSteps);
+      p.sin_right[i] = std::abs(a) < M_PI / 2 ? std::sin(a) : kNan;
+      p.cos_right[i] = std::cos(a);
+    }
+  }
 }
 
 const ObstacleDetector::Pair& ObstacleDetector::pair(PairBand band) const {
@@ -154,24 +177,9 @@ void ObstacleDetector::triangulate(const Pair& p, const cv::Mat& disparity, cv::
   const Eigen::Vector3d& right_centre = p.reduced.right_centre_m;
   const bool on_axis = right_centre.isZero();
   const double A = p.reduced.baseline_m;
-  std::vector<double> sin_a(static_cast<std::size_t>(r.width)), cos_a(sin_a.size());
-  for (int c = 0; c < r.width; ++c) {
-    const double alpha = grid.alpha_of_column(c);
-    sin_a[static_cast<std::size_t>(c)] = std::sin(alpha);
-    cos_a[static_cast<std::size_t>(c)] = std::cos(alpha);
-  }
-  // The right eye's column c - d at the matchers' 1/16 px steps: its angle's sine and cosine
-  // from a table (other disparities computed).
-  const int steps = 16;
-  const int first_step = -steps * static_cast<int>(std::ceil(max_disparity_px_ + 16));
-  std::vector<double> sin_r(static_cast<std::size_t>(steps * r.width - first_step)),
-      cos_r(sin_r.size());
-  for (std::size_t i = 0; i < sin_r.size(); ++i) {
-    const double a =
-        grid.alpha_of_column(static_cast<double>(static_cast<int>(i) + first_step) / steps);
-    sin_r[i] = std::abs(a) < M_PI / 2 ? std::sin(a) : kNan;
-    cos_r[i] = std::cos(a);
-  }
+  const std::vector<double>&sin_a = p.sin_left, &cos_a = p.cos_left;
+  const std::vector<double>&sin_r = p.sin_right, &cos_r = p.cos_right;
+  const int steps = kRightSteps, first_step = p.first_right_step;
   if (points.size() != disparity.size() || points.type() != CV_32FC3) {
     points.create(disparity.size(), CV_32FC3);
     points.setTo(cv::Scalar::all(kNan));

@@ -176,6 +176,10 @@ class ObstacleDetector {
     GroundPlane prior;               // in the pair's left rectified frame
     Eigen::Isometry3d T_reporting_rect = Eigen::Isometry3d::Identity();
     std::vector<double> row_beta;  // per reduced row, rad
+    // sin and cos of the angle alpha of each reduced left column, and of the right eye's
+    // columns from first_right_step / 16 px on in 1/16 px steps (NaN sine past 90 deg).
+    std::vector<double> sin_left, cos_left, sin_right, cos_right;
+    int first_right_step = 0;
   };
   const Pair& pair(PairBand band) const;
   // Each pixel's point (left rectified frame, NaN where it has none) into `points` (made the
