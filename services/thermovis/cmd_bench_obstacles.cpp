@@ -49,6 +49,7 @@ struct Options {
   std::string dump;  // folder: the first capture of each scene drawn
   bool share_ground = false;
   bool no_fixed_pattern = false;     // the infrared cameras without their per-pixel offsets
+  bool track_ground = false;         // each pair's ground searched about the last capture's
   double texture_noise_factor = -1;  // >= 0: DenseOptions::texture_noise_factor
   pl::GridOptions grid;
 };
@@ -216,7 +217,8 @@ int run_bench_obstacles(const Options& opt) {
   std::vector<double> cpu_ms;
   std::vector<Bin> bins(std::size(kBins));
   std::map<std::string, PerTarget> per_target;
-  int obstacles_total = 0, obstacles_on_target = 0, no_ground = 0, captures = 0;
+  int obstacles_total = 0, obstacles_on_target = 0, no_ground = 0, ground_tracked = 0, captures = 0;
+  ob::GroundTracks tracks;
   auto run = [&](const sim::SimulatedRig& simulated, std::int64_t frame) {
     sim::FrameSet frames = simulated.allocate();
     simulated.render(frame, frames);
@@ -225,8 +227,11 @@ int run_bench_obstacles(const Options& opt) {
                           frames[sim::Slot::infrared_left], frames[sim::Slot::infrared_right]});
     const thermovis::cli::OneOpenCvThread one_thread;
     const double t0 = thermovis::cli::thread_cpu_ms();
+    if (captures == opt.frames) tracks.reset();  // the empty road: another stream
     ob::ObstacleResult r =
-        detector.detect(c.grey_left, c.grey_right, c.infrared_left, c.infrared_right);
+        opt.track_ground
+            ? detector.detect(c.grey_left, c.grey_right, c.infrared_left, c.infrared_right, tracks)
+            : detector.detect(c.grey_left, c.grey_right, c.infrared_left, c.infrared_right);
     cpu_ms.push_back(thermovis::cli::thread_cpu_ms() - t0);
     // The first capture of each scene, and every empty-road frame with a (false) obstacle.
     const bool empty_road = captures >= opt.frames;
@@ -238,7 +243,10 @@ int run_bench_obstacles(const Options& opt) {
       dump_capture(prefix, detector, c, r);
     }
     ++captures;
-    for (const auto& p : r.pairs) no_ground += !p.ok();
+    for (const auto& p : r.pairs) {
+      no_ground += !p.ok();
+      ground_tracked += p.ground_tracked;
+    }
     return r;
   };
 
@@ -336,6 +344,7 @@ int run_bench_obstacles(const Options& opt) {
                                 {"obstacles", obstacles_total},
                                 {"obstacles_on_a_target", obstacles_on_target},
                                 {"pairs_without_ground", no_ground},
+                                {"pairs_ground_tracked", ground_tracked},
                                 {"empty_road_frames", opt.empty_frames},
                                 {"false_obstacles_per_100_frames", false_per_100},
                                 {"cpu_ms_median", percentile(cpu_ms, 50)},
@@ -411,6 +420,8 @@ THERMOVIS_COMMAND(
       app.add_option("--texture-noise-factor", opt->texture_noise_factor,
                      "block matching: a block's texture at least this many times its noise's "
                      "(0: the fixed threshold alone; default: the detector's)");
+      app.add_flag("--track-ground", opt->track_ground,
+                   "each pair's ground searched about the last capture's (GroundTracks)");
       app.add_flag("--json", opt->json, "one JSON object");
       app.add_option("--dump", opt->dump,
                      "folder: the first capture of each scene and every empty-road frame with an "

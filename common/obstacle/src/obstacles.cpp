@@ -400,8 +400,26 @@ std::vector<Obstacle> ObstacleDetector::cluster(const std::vector<Stixel>& stixe
   return out;
 }
 
+GroundTracker& GroundTracks::of(PairBand band) {
+  for (auto& [b, tracker] : trackers_) {
+    if (b == band) return tracker;
+  }
+  trackers_.emplace_back(band, GroundTracker(options_));
+  return trackers_.back().second;
+}
+
+void GroundTracks::reset() {
+  for (auto& entry : trackers_) entry.second.reset();
+}
+
 PairObstacles ObstacleDetector::from_disparity(PairBand band, const cv::Mat& disparity,
                                                const GroundPlane* rig_ground) const {
+  return analyse(band, disparity, rig_ground, nullptr);
+}
+
+PairObstacles ObstacleDetector::analyse(PairBand band, const cv::Mat& disparity,
+                                        const GroundPlane* rig_ground,
+                                        GroundTracker* tracker) const {
   const Pair& p = pair(band);
   const auto& r = p.reduced.grid.intrinsics();
   if (disparity.type() != CV_32FC1 || disparity.size() != cv::Size(r.width, r.height)) {
@@ -421,8 +439,19 @@ PairObstacles ObstacleDetector::from_disparity(PairBand band, const cv::Mat& dis
     out.ground.plane = plane_in_frame(*rig_ground, p.setup.geometry.T_ref_left_rect);
     out.ground_from_other = true;
   } else {
-    out.ground =
-        fit_ground(points, p.row_beta, r.f * p.reduced.baseline_m, p.prior, options_.ground);
+    const double f_baseline = r.f * p.reduced.baseline_m;
+    if (tracker != nullptr && tracker->tracking()) {
+      // About the last frame's ground; the prior's search where that finds none or one the
+      // prior's search would not have accepted.
+      out.ground = fit_ground(points, p.row_beta, f_baseline, tracker->centre(p.prior),
+                              tracker->search_options(options_.ground));
+      out.ground_tracked =
+          out.ground.ok() && within_search(out.ground.plane, p.prior, options_.ground);
+    }
+    if (!out.ground_tracked) {
+      out.ground = fit_ground(points, p.row_beta, f_baseline, p.prior, options_.ground);
+    }
+    if (tracker != nullptr) tracker->update(out.ground);
   }
   const Eigen::Isometry3d T_rect_reporting = p.T_reporting_rect.inverse();
   out.ground_reporting = plane_in_frame(out.ground.plane, T_rect_reporting);
@@ -465,9 +494,28 @@ PairObstacles ObstacleDetector::detect_pair(PairBand band, const cv::Mat& left,
   return from_disparity(band, disparity(band, left, right));
 }
 
+PairObstacles ObstacleDetector::detect_pair(PairBand band, const cv::Mat& left,
+                                            const cv::Mat& right, GroundTracker& tracker) const {
+  return analyse(band, disparity(band, left, right), nullptr, &tracker);
+}
+
 ObstacleResult ObstacleDetector::detect(const cv::Mat& visible_left, const cv::Mat& visible_right,
                                         const cv::Mat& infrared_left,
                                         const cv::Mat& infrared_right) const {
+  return detect_with(visible_left, visible_right, infrared_left, infrared_right, nullptr);
+}
+
+ObstacleResult ObstacleDetector::detect(const cv::Mat& visible_left, const cv::Mat& visible_right,
+                                        const cv::Mat& infrared_left, const cv::Mat& infrared_right,
+                                        GroundTracks& tracks) const {
+  return detect_with(visible_left, visible_right, infrared_left, infrared_right, &tracks);
+}
+
+ObstacleResult ObstacleDetector::detect_with(const cv::Mat& visible_left,
+                                             const cv::Mat& visible_right,
+                                             const cv::Mat& infrared_left,
+                                             const cv::Mat& infrared_right,
+                                             GroundTracks* tracks) const {
   std::vector<std::pair<PairBand, cv::Mat>> disparities;
   for (const Pair& p : pairs_) {
     const bool visible = p.setup.band == PairBand::visible;
@@ -476,13 +524,25 @@ ObstacleResult ObstacleDetector::detect(const cv::Mat& visible_left, const cv::M
     if (l.empty() && r.empty()) continue;
     disparities.emplace_back(p.setup.band, disparity(p.setup.band, l, r));
   }
-  return from_disparities(disparities);
+  return from_disparities_with(disparities, tracks);
 }
 
 ObstacleResult ObstacleDetector::from_disparities(
     const std::vector<std::pair<PairBand, cv::Mat>>& disparities) const {
+  return from_disparities_with(disparities, nullptr);
+}
+
+ObstacleResult ObstacleDetector::from_disparities(
+    const std::vector<std::pair<PairBand, cv::Mat>>& disparities, GroundTracks& tracks) const {
+  return from_disparities_with(disparities, &tracks);
+}
+
+ObstacleResult ObstacleDetector::from_disparities_with(
+    const std::vector<std::pair<PairBand, cv::Mat>>& disparities, GroundTracks* tracks) const {
   std::vector<PairObstacles> found;
-  for (const auto& [band, d] : disparities) found.push_back(from_disparity(band, d));
+  for (const auto& [band, d] : disparities) {
+    found.push_back(analyse(band, d, nullptr, tracks != nullptr ? &tracks->of(band) : nullptr));
+  }
   // A pair without a ground of its own on the other's (in the rig frame).
   for (std::size_t i = 0; i < found.size() && options_.share_ground; ++i) {
     if (found[i].ok()) continue;

@@ -218,6 +218,34 @@ TEST(ObstacleDetector, APairWithoutGroundTakesTheOthersWhenAskedTo) {
   }
 }
 
+TEST(ObstacleDetector, TracksTheGroundFromFrameToFrame) {
+  // A road, the same road (searched about the first frame's ground), a wall filling the view
+  // (no ground: the track is dropped), the road again (the prior's search).
+  const ob::ObstacleDetector d = synthetic_detector();
+  const cv::Mat road = synthetic_disparity(d, {{12.0, 0.5, 1.5, 0.8}});
+  const cv::Mat wall = synthetic_disparity(d, {}, 3.0);
+  ob::GroundTracks tracks;
+  const ob::ObstacleResult untracked = d.from_disparities({{ob::PairBand::visible, road}});
+  const std::vector<std::pair<cv::Mat, bool>> frames = {
+      {road, false}, {road, true}, {wall, false}, {road, false}};
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    const ob::ObstacleResult r =
+        d.from_disparities({{ob::PairBand::visible, frames[i].first}}, tracks);
+    ASSERT_EQ(r.pairs.size(), 1u);
+    const ob::PairObstacles& p = r.pairs[0];
+    const bool ground = frames[i].first.data == road.data;
+    EXPECT_EQ(p.ok(), ground) << "frame " << i << ": " << p.ground.message;
+    EXPECT_EQ(p.ground_tracked, frames[i].second) << "frame " << i;
+    EXPECT_EQ(tracks.of(ob::PairBand::visible).tracking(), ground) << "frame " << i;
+    if (!ground) continue;
+    EXPECT_NEAR(p.ground.plane.height_m, untracked.pairs[0].ground.plane.height_m, 1e-3);
+    ASSERT_EQ(r.obstacles.size(), 1u) << "frame " << i;
+    EXPECT_NEAR(r.obstacles[0].distance_m, untracked.obstacles[0].distance_m, 0.05);
+  }
+  tracks.reset();
+  EXPECT_FALSE(tracks.of(ob::PairBand::visible).tracking());
+}
+
 TEST(ObstacleDetector, BadInputIsNamed) {
   const ob::ObstacleDetector d = synthetic_detector();
   EXPECT_THROW(d.from_disparity(ob::PairBand::visible, cv::Mat(10, 10, CV_32F)),

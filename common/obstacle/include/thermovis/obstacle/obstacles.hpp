@@ -111,8 +111,10 @@ struct PairObstacles {
   PairBand band = PairBand::visible;
   GroundFit ground;                // the pair's left rectified frame
   bool ground_from_other = false;  // the other pair's ground (the pair found none of its own)
-  GroundPlane ground_reporting;    // the same plane in the reporting frame
-  std::vector<Stixel> stixels;     // every column's (also those no obstacle keeps)
+  // Found by the search about the last frame's ground (detect with GroundTracks).
+  bool ground_tracked = false;
+  GroundPlane ground_reporting;  // the same plane in the reporting frame
+  std::vector<Stixel> stixels;   // every column's (also those no obstacle keeps)
   std::vector<Obstacle> obstacles;
   // Per pipeline grid column: distance to the first obstacle, m; max_distance_m where there is
   // none; NaN everywhere when the ground was not found.
@@ -126,6 +128,19 @@ struct ObstacleResult {
   // Per grid column: the nearest of the pairs that found the ground; NaN where none did.
   std::vector<float> free_space_m;
   bool ok() const;  // some pair found the ground
+};
+
+// Each pair's GroundTracker (ground.hpp) over the frames of one camera stream, for
+// ObstacleDetector::detect(..., tracks): made on a pair's first frame.
+class GroundTracks {
+ public:
+  explicit GroundTracks(const GroundTrackerOptions& options = {}) : options_(options) {}
+  GroundTracker& of(PairBand band);
+  void reset();  // every pair's search about its prior again (a new stream, the rig moved)
+
+ private:
+  GroundTrackerOptions options_;
+  std::vector<std::pair<PairBand, GroundTracker>> trackers_;
 };
 
 class ObstacleDetector {
@@ -147,6 +162,10 @@ class ObstacleDetector {
   // One pair's rectified images on the pipeline grid (CV_8UC1, CV_8UC3 or CV_16UC1 counts).
   // Throws std::invalid_argument for a band not set up or images of another size or type.
   PairObstacles detect_pair(PairBand band, const cv::Mat& left, const cv::Mat& right) const;
+  // The same, the ground searched about `tracker`'s last one (GroundTracker), which takes this
+  // frame's: one tracker per pair and camera stream.
+  PairObstacles detect_pair(PairBand band, const cv::Mat& left, const cv::Mat& right,
+                            GroundTracker& tracker) const;
   // The same from a disparity already on the pair's reduced grid (CV_32FC1, reduced px, NaN
   // where none): what detect_pair does after matching. With `rig_ground` (the rig frame) that
   // plane is the ground instead of the pair's own fit (GroundFit::message says so).
@@ -162,9 +181,17 @@ class ObstacleDetector {
   // that finds no ground of its own takes the other's where that one found it.
   ObstacleResult detect(const cv::Mat& visible_left, const cv::Mat& visible_right,
                         const cv::Mat& infrared_left, const cv::Mat& infrared_right) const;
+  // The same, each pair's ground searched about its ground of the last frame given to `tracks`
+  // (narrower: GroundTracker), about the prior where there is none or that search fails; the
+  // tracks take this frame's grounds.
+  ObstacleResult detect(const cv::Mat& visible_left, const cv::Mat& visible_right,
+                        const cv::Mat& infrared_left, const cv::Mat& infrared_right,
+                        GroundTracks& tracks) const;
   // The same from each pair's disparity on its reduced grid.
   ObstacleResult from_disparities(
       const std::vector<std::pair<PairBand, cv::Mat>>& disparities) const;
+  ObstacleResult from_disparities(const std::vector<std::pair<PairBand, cv::Mat>>& disparities,
+                                  GroundTracks& tracks) const;
   ObstacleResult combine(std::vector<PairObstacles> pairs) const;
 
  private:
@@ -182,6 +209,14 @@ class ObstacleDetector {
     int first_right_step = 0;
   };
   const Pair& pair(PairBand band) const;
+  // from_disparity; with a tracker, the ground searched about its last one first (detect).
+  PairObstacles analyse(PairBand band, const cv::Mat& disparity, const GroundPlane* rig_ground,
+                        GroundTracker* tracker) const;
+  ObstacleResult detect_with(const cv::Mat& visible_left, const cv::Mat& visible_right,
+                             const cv::Mat& infrared_left, const cv::Mat& infrared_right,
+                             GroundTracks* tracks) const;
+  ObstacleResult from_disparities_with(const std::vector<std::pair<PairBand, cv::Mat>>& disparities,
+                                       GroundTracks* tracks) const;
   // Each pixel's point (left rectified frame, NaN where it has none) into `points` (made the
   // disparity's size when it is not): the columns the ground is fitted on
   // (GroundOptions::column_step), or the others.
