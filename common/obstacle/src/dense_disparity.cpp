@@ -60,6 +60,23 @@ int block_texture_threshold(const cv::Mat& left, const DenseOptions& options) {
                   static_cast<int>(std::lround(options.texture_noise_factor * noise_texture)));
 }
 
+double textured_share(const cv::Mat& left, const DenseOptions& options) {
+  check_grey(left, "left");
+  const int b = options.block_size;
+  if (left.rows < b || left.cols < b) return 0.0;
+  // StereoBM's texture of a block: the sum over it of its pre-filter's magnitude, the x Sobel
+  // clipped at the cap (31).
+  cv::Mat sobel, magnitude, texture;
+  cv::Sobel(left, sobel, CV_16S, 1, 0, 3);
+  cv::min(cv::abs(sobel), 31, magnitude);
+  magnitude.convertTo(magnitude, CV_32S);
+  cv::boxFilter(magnitude, texture, CV_32S, cv::Size(b, b), cv::Point(-1, -1), false,
+                cv::BORDER_REPLICATE);
+  const int threshold = block_texture_threshold(left, options);
+  const cv::Rect inner(b / 2, b / 2, left.cols - b + 1, left.rows - b + 1);
+  return static_cast<double>(cv::countNonZero(texture(inner) >= threshold)) / inner.area();
+}
+
 cv::Mat dense_disparity(const cv::Mat& left, const cv::Mat& right, double max_disparity_px,
                         const DenseOptions& options) {
   check_grey(left, "left");

@@ -389,6 +389,12 @@ TEST(DenseDisparity, AFeaturelessSurfaceGivesNoDisparityInItsNoise) {
   ob::DenseOptions options;
   const cv::Mat d = ob::dense_disparity(left, right, 20, options);
   EXPECT_EQ(off_band(d), 0);
+  // The blocks with texture: those over the band (its 20 rows and a few of the 6 rows that
+  // reach into it, of 114 block rows), no others.
+  const double textured = ob::textured_share(left, options);
+  EXPECT_GT(textured, 14.0 / 114.0);
+  EXPECT_LT(textured, 26.0 / 114.0);
+  EXPECT_LT(ob::textured_share(left(cv::Rect(0, 0, 220, 40)), options), 0.01);
   EXPECT_GT(on_band(d), 0.8 * 10 * 170);
   options.texture_noise_factor = 0;  // the fixed threshold alone: matches in the noise
   EXPECT_GT(off_band(ob::dense_disparity(left, right, 20, options)), 20);

@@ -47,6 +47,10 @@ double image_noise_sigma(const cv::Mat& grey);
 // texture_noise_factor times the texture the image's noise gives a block where that is more.
 int block_texture_threshold(const cv::Mat& left, const DenseOptions& options);
 
+// The share of a left image's blocks (0..1, those wholly inside it) whose texture reaches
+// block_texture_threshold: more than the share of pixels block matching can give a disparity.
+double textured_share(const cv::Mat& left, const DenseOptions& options);
+
 // A pair as the matcher reads it: CV_8UC1 kept, CV_8UC3 (BGR) to grey, CV_16UC1 (infrared
 // counts, 0 outside the camera's field) as their local detail (less the 9 x 9 mean) around grey
 // 128, at one gain for both eyes (so that a point is the same grey in both). Throws
