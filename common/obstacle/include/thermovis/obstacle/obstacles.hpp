@@ -75,10 +75,10 @@ struct ObstacleOptions {
   double cluster_tolerance_share = 0.08;  // + this share of their distance
   int max_cluster_gap_columns = 2;        // reduced columns without a stixel inside an obstacle
   // A pair that finds no ground of its own takes the other pair's (detect()). Off: on the
-  // simulated street the infrared pair's road is its cameras' fixed pattern, and its stixels
-  // on the visible pair's ground gave 9.7 false obstacles per empty-road frame against the
-  // visible pair's 0.54, for 96.2 % recall against 95.5 % (`thermovis bench obstacles
-  // --share-ground`).
+  // simulated street the infrared pair's road is its cameras' fixed pattern; before the
+  // noise-relative texture threshold (DenseOptions::texture_noise_factor) its stixels on the
+  // visible pair's ground gave 9.7 false obstacles per empty-road frame, and with it the pair
+  // has no disparity to give stixels (`thermovis bench obstacles --share-ground`).
   bool share_ground = false;
 };
 
