@@ -167,9 +167,12 @@ void dump_capture(const std::string& prefix, const ob::ObstacleDetector& detecto
                          visible ? c.grey_right : c.infrared_right, l8, r8);
     std::cerr << "  reduced left image: noise " << ob::image_noise_sigma(l8)
               << " grey levels (upper bound), block texture threshold "
-              << ob::block_texture_threshold(l8, detector.options().dense) << "\n";
+              << ob::block_texture_threshold(
+                     l8, detector.dense_options_for(visible ? c.grey_left : c.infrared_left))
+              << "\n";
     const cv::Mat d =
-        ob::dense_disparity(l8, r8, detector.max_disparity_px(), detector.options().dense);
+        ob::dense_disparity(l8, r8, detector.max_disparity_px(),
+                            detector.dense_options_for(visible ? c.grey_left : c.infrared_left));
     cv::Mat shown;
     d.convertTo(shown, CV_8U, 255.0 / detector.max_disparity_px());
     cv::applyColorMap(shown, shown, cv::COLORMAP_JET);

@@ -482,18 +482,25 @@ PairObstacles ObstacleDetector::analyse(PairBand band, const cv::Mat& disparity,
   return out;
 }
 
+DenseOptions ObstacleDetector::dense_options_for(const cv::Mat& left) const {
+  DenseOptions o = options_.dense;
+  if (left.type() == CV_16UC1) o.texture_noise_factor = options_.counts_texture_noise_factor;
+  return o;
+}
+
 cv::Mat ObstacleDetector::disparity(PairBand band, const cv::Mat& left,
                                     const cv::Mat& right) const {
   cv::Mat left8, right8;
   reduce_pair(band, left, right, left8, right8);
+  const DenseOptions dense = dense_options_for(left);
   // Block matching gives a disparity to no more pixels than have a block with texture: where
   // that is less than the ground fit needs (min_valid_share, then no_disparity), not matched
   // (on the simulated road the infrared pair's, whose detail is its fixed pattern).
-  if (options_.dense.method == DenseMethod::block_matching &&
-      textured_share(left8, options_.dense) < options_.ground.min_valid_share) {
+  if (dense.method == DenseMethod::block_matching &&
+      textured_share(left8, dense) < options_.ground.min_valid_share) {
     return cv::Mat(left8.size(), CV_32FC1, cv::Scalar(kNan));
   }
-  return dense_disparity(left8, right8, max_disparity_px_, options_.dense);
+  return dense_disparity(left8, right8, max_disparity_px_, dense);
 }
 
 PairObstacles ObstacleDetector::detect_pair(PairBand band, const cv::Mat& left,

@@ -246,6 +246,17 @@ TEST(ObstacleDetector, TracksTheGroundFromFrameToFrame) {
   EXPECT_FALSE(tracks.of(ob::PairBand::visible).tracking());
 }
 
+TEST(ObstacleDetector, InfraredCountsAreMatchedWithTheirOwnTextureFactor) {
+  // Counts are matched as their stretched detail, whose noise estimate is a share of it.
+  ob::ObstacleOptions options;
+  options.dense.texture_noise_factor = 2.5;
+  options.counts_texture_noise_factor = 1.5;
+  const ob::ObstacleDetector d = synthetic_detector(options);
+  EXPECT_EQ(d.dense_options_for(cv::Mat(4, 4, CV_16UC1)).texture_noise_factor, 1.5);
+  EXPECT_EQ(d.dense_options_for(cv::Mat(4, 4, CV_8UC1)).texture_noise_factor, 2.5);
+  EXPECT_EQ(d.dense_options_for(cv::Mat(4, 4, CV_8UC3)).texture_noise_factor, 2.5);
+}
+
 TEST(ObstacleDetector, BadInputIsNamed) {
   const ob::ObstacleDetector d = synthetic_detector();
   EXPECT_THROW(d.from_disparity(ob::PairBand::visible, cv::Mat(10, 10, CV_32F)),

@@ -57,6 +57,13 @@ struct ObstacleOptions {
   double min_distance_m = 2.5;      // the nearest obstacle searched (disparity range, bottom row)
   double max_distance_m = 60.0;     // stixels farther are dropped; free space where none
   DenseOptions dense;
+  // DenseOptions::texture_noise_factor for infrared counts (CV_16UC1), matched as their local
+  // detail stretched to a fixed spread (grey_pair): there the noise estimate is a share of the
+  // detail, not the sensor's level, and the real thermal pair of the MS2 road frame (ground
+  // and van found with the fixed threshold) keeps 2.5 % of its pixels at 2.5. At 1.5 a block of
+  // noise alone (its texture's spread over 49 px about a sixth of its mean) passes in well
+  // under 1 of 1000; the simulated cameras' fixed pattern, the whole detail, passes nowhere.
+  double counts_texture_noise_factor = 1.5;
   GroundOptions ground;
   double min_height_m = 0.15;             // a pixel this high above the ground (+ 3 sigma) stands
   double disparity_sigma_px = 0.25;       // one pixel's disparity noise, reduced px (height test)
@@ -173,6 +180,9 @@ class ObstacleDetector {
                                const GroundPlane* rig_ground = nullptr) const;
   // The pair's dense disparity on its reduced grid.
   cv::Mat disparity(PairBand band, const cv::Mat& left, const cv::Mat& right) const;
+  // The dense options a pair's images are matched with: options().dense, for infrared counts
+  // (CV_16UC1) with counts_texture_noise_factor.
+  DenseOptions dense_options_for(const cv::Mat& left) const;
   // The reduced pair as the matcher reads it (grey, cropped and averaged).
   void reduce_pair(PairBand band, const cv::Mat& left, const cv::Mat& right, cv::Mat& left8,
                    cv::Mat& right8) const;
