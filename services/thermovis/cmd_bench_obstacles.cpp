@@ -48,7 +48,9 @@ struct Options {
   bool json = false;
   std::string dump;  // folder: the first capture of each scene drawn
   bool share_ground = false;
-  bool no_fixed_pattern = false;  // the infrared cameras without their per-pixel offsets
+  bool no_fixed_pattern = false;     // the infrared cameras without their per-pixel offsets
+  bool track_ground = false;         // each pair's ground searched about the last capture's
+  double texture_noise_factor = -1;  // >= 0: DenseOptions::texture_noise_factor
   pl::GridOptions grid;
 };
 
@@ -151,13 +153,26 @@ void dump_capture(const std::string& prefix, const ob::ObstacleDetector& detecto
     for (const ob::Obstacle& o : p.obstacles) {
       std::cerr << "  obstacle " << o.box << " d " << o.distance_m << " +- " << o.sigma_m << " ext "
                 << o.extent_m.transpose() << " n " << o.stixels << "\n";
+      const int k = detector.options().reduction;
+      for (const ob::Stixel& s : p.stixels) {
+        if (s.column * k < o.box.x || s.column * k >= o.box.br().x) continue;
+        std::cerr << "    stixel column " << s.column << " rows " << s.top_row << "-" << s.base_row
+                  << " d " << s.disparity_px << " px " << s.distance_m << " m height " << s.height_m
+                  << " m\n";
+      }
     }
     cv::Mat l8, r8;
     const bool visible = p.band == ob::PairBand::visible;
     detector.reduce_pair(p.band, visible ? c.grey_left : c.infrared_left,
                          visible ? c.grey_right : c.infrared_right, l8, r8);
+    std::cerr << "  reduced left image: noise " << ob::image_noise_sigma(l8)
+              << " grey levels (upper bound), block texture threshold "
+              << ob::block_texture_threshold(
+                     l8, detector.dense_options_for(visible ? c.grey_left : c.infrared_left))
+              << "\n";
     const cv::Mat d =
-        ob::dense_disparity(l8, r8, detector.max_disparity_px(), detector.options().dense);
+        ob::dense_disparity(l8, r8, detector.max_disparity_px(),
+                            detector.dense_options_for(visible ? c.grey_left : c.infrared_left));
     cv::Mat shown;
     d.convertTo(shown, CV_8U, 255.0 / detector.max_disparity_px());
     cv::applyColorMap(shown, shown, cv::COLORMAP_JET);
@@ -184,6 +199,9 @@ int run_bench_obstacles(const Options& opt) {
 
   ob::ObstacleOptions obstacle_options;
   obstacle_options.dense.method = ob::parse_dense_method(opt.method);
+  if (opt.texture_noise_factor >= 0) {
+    obstacle_options.dense.texture_noise_factor = opt.texture_noise_factor;
+  }
   obstacle_options.share_ground = opt.share_ground;
   ob::GroundPrior prior;
   prior.camera_height_m = scene.camera_height_m;  // the simulated rig is level
@@ -202,7 +220,8 @@ int run_bench_obstacles(const Options& opt) {
   std::vector<double> cpu_ms;
   std::vector<Bin> bins(std::size(kBins));
   std::map<std::string, PerTarget> per_target;
-  int obstacles_total = 0, obstacles_on_target = 0, no_ground = 0, captures = 0;
+  int obstacles_total = 0, obstacles_on_target = 0, no_ground = 0, ground_tracked = 0, captures = 0;
+  ob::GroundTracks tracks;
   auto run = [&](const sim::SimulatedRig& simulated, std::int64_t frame) {
     sim::FrameSet frames = simulated.allocate();
     simulated.render(frame, frames);
@@ -211,14 +230,26 @@ int run_bench_obstacles(const Options& opt) {
                           frames[sim::Slot::infrared_left], frames[sim::Slot::infrared_right]});
     const thermovis::cli::OneOpenCvThread one_thread;
     const double t0 = thermovis::cli::thread_cpu_ms();
+    if (captures == opt.frames) tracks.reset();  // the empty road: another stream
     ob::ObstacleResult r =
-        detector.detect(c.grey_left, c.grey_right, c.infrared_left, c.infrared_right);
+        opt.track_ground
+            ? detector.detect(c.grey_left, c.grey_right, c.infrared_left, c.infrared_right, tracks)
+            : detector.detect(c.grey_left, c.grey_right, c.infrared_left, c.infrared_right);
     cpu_ms.push_back(thermovis::cli::thread_cpu_ms() - t0);
-    if (!opt.dump.empty() && (captures == 0 || captures == opt.frames)) {
-      dump_capture(opt.dump + "/" + simulated.scene().name, detector, c, r);
+    // The first capture of each scene, and every empty-road frame with a (false) obstacle.
+    const bool empty_road = captures >= opt.frames;
+    if (!opt.dump.empty() &&
+        (captures == 0 || captures == opt.frames || (empty_road && !r.obstacles.empty()))) {
+      std::string prefix = opt.dump + "/" + simulated.scene().name;
+      if (empty_road && captures > opt.frames) prefix += "_" + std::to_string(frame);
+      std::cerr << prefix << ":\n";
+      dump_capture(prefix, detector, c, r);
     }
     ++captures;
-    for (const auto& p : r.pairs) no_ground += !p.ok();
+    for (const auto& p : r.pairs) {
+      no_ground += !p.ok();
+      ground_tracked += p.ground_tracked;
+    }
     return r;
   };
 
@@ -316,6 +347,7 @@ int run_bench_obstacles(const Options& opt) {
                                 {"obstacles", obstacles_total},
                                 {"obstacles_on_a_target", obstacles_on_target},
                                 {"pairs_without_ground", no_ground},
+                                {"pairs_ground_tracked", ground_tracked},
                                 {"empty_road_frames", opt.empty_frames},
                                 {"false_obstacles_per_100_frames", false_per_100},
                                 {"cpu_ms_median", percentile(cpu_ms, 50)},
@@ -388,9 +420,15 @@ THERMOVIS_COMMAND(
                    "render the infrared cameras without fixed-pattern noise (a corrected camera)");
       app.add_flag("--share-ground", opt->share_ground,
                    "a pair without a ground of its own takes the other's");
+      app.add_option("--texture-noise-factor", opt->texture_noise_factor,
+                     "block matching: a block's texture at least this many times its noise's "
+                     "(0: the fixed threshold alone; default: the detector's)");
+      app.add_flag("--track-ground", opt->track_ground,
+                   "each pair's ground searched about the last capture's (GroundTracks)");
       app.add_flag("--json", opt->json, "one JSON object");
       app.add_option("--dump", opt->dump,
-                     "folder: the first capture of each scene drawn (obstacles, disparity)");
+                     "folder: the first capture of each scene and every empty-road frame with an "
+                     "obstacle drawn (obstacles, disparity)");
       thermovis::runtime::add_grid_options(app, opt->grid);
       return [opt] { return run_bench_obstacles(*opt); };
     });

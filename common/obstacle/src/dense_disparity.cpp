@@ -34,6 +34,49 @@ DenseMethod parse_dense_method(const std::string& name) {
                               util::join_names(kMethodNames, ", ", " or ") + ")");
 }
 
+double image_noise_sigma(const cv::Mat& grey) {
+  check_grey(grey, "noise");
+  if (grey.rows < 3 || grey.cols < 3) return 0.0;
+  // Immerkaer (1996): the difference of two Laplacians cancels intensity that is planar over
+  // 3 x 3 px; on white noise of sigma s its response has the standard deviation 6 s, so its
+  // mean absolute value is sqrt(2 / pi) 6 s. Texture adds to it (an upper bound).
+  const cv::Mat kernel = (cv::Mat_<float>(3, 3) << 1, -2, 1, -2, 4, -2, 1, -2, 1);
+  cv::Mat response;
+  cv::filter2D(grey, response, CV_32F, kernel);
+  const cv::Rect inner(1, 1, grey.cols - 2, grey.rows - 2);
+  const double mean_abs = cv::mean(cv::abs(response(inner)))[0];
+  return mean_abs / (6.0 * std::sqrt(2.0 / M_PI));
+}
+
+int block_texture_threshold(const cv::Mat& left, const DenseOptions& options) {
+  if (!(options.texture_noise_factor > 0)) return options.texture_threshold;
+  // StereoBM's texture of a block: the sum over it of its x Sobel's magnitude (clipped at the
+  // pre-filter's cap, which noise does not reach). The x Sobel of white noise of sigma s has
+  // the standard deviation sqrt(12) s, so a mean magnitude of sqrt(2 / pi) sqrt(12) s.
+  const double sigma = image_noise_sigma(left);
+  const double noise_texture =
+      options.block_size * options.block_size * std::sqrt(2.0 / M_PI) * std::sqrt(12.0) * sigma;
+  return std::max(options.texture_threshold,
+                  static_cast<int>(std::lround(options.texture_noise_factor * noise_texture)));
+}
+
+double textured_share(const cv::Mat& left, const DenseOptions& options) {
+  check_grey(left, "left");
+  const int b = options.block_size;
+  if (left.rows < b || left.cols < b) return 0.0;
+  // StereoBM's texture of a block: the sum over it of its pre-filter's magnitude, the x Sobel
+  // clipped at the cap (31).
+  cv::Mat sobel, magnitude, texture;
+  cv::Sobel(left, sobel, CV_16S, 1, 0, 3);
+  cv::min(cv::abs(sobel), 31, magnitude);
+  magnitude.convertTo(magnitude, CV_32S);
+  cv::boxFilter(magnitude, texture, CV_32S, cv::Size(b, b), cv::Point(-1, -1), false,
+                cv::BORDER_REPLICATE);
+  const int threshold = block_texture_threshold(left, options);
+  const cv::Rect inner(b / 2, b / 2, left.cols - b + 1, left.rows - b + 1);
+  return static_cast<double>(cv::countNonZero(texture(inner) >= threshold)) / inner.area();
+}
+
 cv::Mat dense_disparity(const cv::Mat& left, const cv::Mat& right, double max_disparity_px,
                         const DenseOptions& options) {
   check_grey(left, "left");
@@ -53,7 +96,7 @@ cv::Mat dense_disparity(const cv::Mat& left, const cv::Mat& right, double max_di
   if (options.method == DenseMethod::block_matching) {
     auto bm = cv::StereoBM::create(range, options.block_size);
     bm->setUniquenessRatio(options.uniqueness_ratio);
-    bm->setTextureThreshold(options.texture_threshold);
+    bm->setTextureThreshold(block_texture_threshold(left, options));
     bm->setSpeckleWindowSize(options.speckle_window);
     bm->setSpeckleRange(16 * options.speckle_range_px);
     bm->setPreFilterCap(31);

@@ -66,6 +66,40 @@ double roll_of(const GroundPlane& rig_plane) {
   return std::atan2(rig_plane.normal.x(), rig_plane.normal.y());
 }
 
+bool within_search(const GroundPlane& plane, const GroundPlane& prior,
+                   const GroundOptions& options) {
+  const double pitch_change = std::abs(std::atan2(plane.normal.z(), plane.normal.y()) -
+                                       std::atan2(prior.normal.z(), prior.normal.y()));
+  const double height_ratio = plane.height_m / prior.height_m;
+  return pitch_change <= options.max_pitch_change_rad * 1.5 &&
+         height_ratio <= options.max_height_factor * 1.1 &&
+         height_ratio >= 1.0 / (options.max_height_factor * 1.1) &&
+         std::abs(plane.normal.x() - prior.normal.x()) <= 0.1;
+}
+
+GroundTracker::GroundTracker(const GroundTrackerOptions& options) : options_(options) {
+  if (!(options.max_pitch_change_rad > 0) || !(options.max_height_factor > 1)) {
+    throw std::invalid_argument(
+        "ground tracker: the pitch change must be > 0 and the height factor > 1");
+  }
+}
+
+GroundOptions GroundTracker::search_options(const GroundOptions& prior_options) const {
+  GroundOptions o = prior_options;
+  if (!last_) return o;
+  o.max_pitch_change_rad = std::min(o.max_pitch_change_rad, options_.max_pitch_change_rad);
+  o.max_height_factor = std::min(o.max_height_factor, options_.max_height_factor);
+  return o;
+}
+
+void GroundTracker::update(const GroundFit& fit) {
+  if (fit.ok()) {
+    last_ = fit.plane;
+  } else {
+    last_.reset();
+  }
+}
+
 GroundFit fit_ground(const cv::Mat& points, const std::vector<double>& row_beta,
                      double f_baseline_px_m, const GroundPlane& prior,
                      const GroundOptions& options) {
@@ -186,10 +220,12 @@ GroundFit fit_ground(const cv::Mat& points, const std::vector<double>& row_beta,
   best_score = -1;
   search(best_phi, options.pitch_step_rad, 4, best_k, coarse_k / 4, 4, 1);
 
-  // Least squares on the pixels near the best candidate, then once more on the refined plane.
+  // Least squares on the pixels near the best candidate, then again on those near the refined
+  // plane, up to max_refits times or until it stays (the candidate is a point of the search's
+  // grid, and its pixels include the feet of walls and targets that refits leave out).
   Eigen::Vector3d w(w0.x(), best_k * std::cos(best_phi), best_k * std::sin(best_phi));
   std::vector<int> row_inliers(static_cast<std::size_t>(points.rows), 0);
-  for (int pass = 0; pass < 2; ++pass) {
+  for (int pass = 0; pass < std::max(1, options.max_refits); ++pass) {
     // The normal equations' sums, one scalar each (Eigen's 3 x 3 temporaries per pixel cost
     // more than the rest of the fit).
     double xx = 0, xy = 0, xz = 0, yy = 0, yz = 0, zz = 0, bx = 0, by = 0, bz = 0;
@@ -220,7 +256,9 @@ GroundFit fit_ground(const cv::Mat& points, const std::vector<double>& row_beta,
     if (inliers < 10) break;
     const Eigen::Vector3d refined = A.ldlt().solve(b);
     if (!refined.allFinite() || !(refined.norm() > 0)) break;
+    const bool settled = (refined - w).norm() < 1e-4 * w.norm();
     w = refined;
+    if (settled) break;
   }
 
   fit.rows_searched = 0;
@@ -237,17 +275,13 @@ GroundFit fit_ground(const cv::Mat& points, const std::vector<double>& row_beta,
   found.height_m = 1.0 / w.norm();
   found.normal = w * found.height_m;
   const double pitch_change = std::abs(std::atan2(found.normal.z(), found.normal.y()) - phi0);
-  const double height_ratio = found.height_m / prior.height_m;
   std::ostringstream why;
   if (fit.rows_searched == 0 || fit.rows_with_ground < options.min_row_share * fit.rows_searched ||
       fit.inlier_pixels < options.min_inlier_share * std::max(1, valid_in_searched)) {
     why << "ground near the prior on " << fit.rows_with_ground << " of " << fit.rows_searched
         << " rows and " << fit.inlier_pixels << " of " << valid_in_searched << " pixels";
     fit.status = GroundStatus::no_ground;
-  } else if (pitch_change > options.max_pitch_change_rad * 1.5 ||
-             height_ratio > options.max_height_factor * 1.1 ||
-             height_ratio < 1.0 / (options.max_height_factor * 1.1) ||
-             std::abs(found.normal.x() - prior.normal.x()) > 0.1) {
+  } else if (!within_search(found, prior, options)) {
     why << "the plane fitted (height " << found.height_m << " m, pitch change " << pitch_change
         << " rad) is beyond the prior's search";
     fit.status = GroundStatus::no_ground;

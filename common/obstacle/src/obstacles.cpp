@@ -15,6 +15,7 @@ namespace {
 constexpr util::EnumName<PairBand> kBandNames[] = {{PairBand::visible, "visible"},
                                                    {PairBand::infrared, "infrared"}};
 constexpr float kNan = std::numeric_limits<float>::quiet_NaN();
+constexpr int kRightSteps = 16;  // the matchers' sub-pixel steps per px
 
 // Horizontal part of a point (along the ground whose downward normal is n), m.
 double horizontal_distance(const Eigen::Vector3d& p, const Eigen::Vector3d& n) {
@@ -106,6 +107,28 @@ ObstacleDetector::ObstacleDetector(const camera::RectifiedIntrinsics& grid,
         std::max(max_disparity_px_, range::max_disparity_for(p.reduced, options.min_distance_m));
     pairs_.push_back(std::move(p));
   }
+  // Each pair's angle tables for triangulate: its left columns, and its right eye's column
+  // c - d at the matchers' 1/16 px steps over the disparity range (other disparities computed).
+  for (Pair& p : pairs_) {
+    const camera::RectifiedCamera& g = p.reduced.grid;
+    const int width = g.intrinsics().width;
+    p.sin_left.resize(static_cast<std::size_t>(width));
+    p.cos_left.resize(p.sin_left.size());
+    for (int c = 0; c < width; ++c) {
+      const double alpha = g.alpha_of_column(c);
+      p.sin_left[static_cast<std::size_t>(c)] = std::sin(alpha);
+      p.cos_left[static_cast<std::size_t>(c)] = std::cos(alpha);
+    }
+    p.first_right_step = -kRightSteps * static_cast<int>(std::ceil(max_disparity_px_ + 16));
+    p.sin_right.resize(static_cast<std::size_t>(kRightSteps * width - p.first_right_step));
+    p.cos_right.resize(p.sin_right.size());
+    for (std::size_t i = 0; i < p.sin_right.size(); ++i) {
+      const double a = g.alpha_of_column(
+          static_cast<double>(static_cast<int>(i) + p.first_right_step) / kRightSteps);
+      p.sin_right[i] = std::abs(a) < M_PI / 2 ? std::sin(a) : kNan;
+      p.cos_right[i] = std::cos(a);
+    }
+  }
 }
 
 const ObstacleDetector::Pair& ObstacleDetector::pair(PairBand band) const {
@@ -154,24 +177,9 @@ void ObstacleDetector::triangulate(const Pair& p, const cv::Mat& disparity, cv::
   const Eigen::Vector3d& right_centre = p.reduced.right_centre_m;
   const bool on_axis = right_centre.isZero();
   const double A = p.reduced.baseline_m;
-  std::vector<double> sin_a(static_cast<std::size_t>(r.width)), cos_a(sin_a.size());
-  for (int c = 0; c < r.width; ++c) {
-    const double alpha = grid.alpha_of_column(c);
-    sin_a[static_cast<std::size_t>(c)] = std::sin(alpha);
-    cos_a[static_cast<std::size_t>(c)] = std::cos(alpha);
-  }
-  // The right eye's column c - d at the matchers' 1/16 px steps: its angle's sine and cosine
-  // from a table (other disparities computed).
-  const int steps = 16;
-  const int first_step = -steps * static_cast<int>(std::ceil(max_disparity_px_ + 16));
-  std::vector<double> sin_r(static_cast<std::size_t>(steps * r.width - first_step)),
-      cos_r(sin_r.size());
-  for (std::size_t i = 0; i < sin_r.size(); ++i) {
-    const double a =
-        grid.alpha_of_column(static_cast<double>(static_cast<int>(i) + first_step) / steps);
-    sin_r[i] = std::abs(a) < M_PI / 2 ? std::sin(a) : kNan;
-    cos_r[i] = std::cos(a);
-  }
+  const std::vector<double>&sin_a = p.sin_left, &cos_a = p.cos_left;
+  const std::vector<double>&sin_r = p.sin_right, &cos_r = p.cos_right;
+  const int steps = kRightSteps, first_step = p.first_right_step;
   if (points.size() != disparity.size() || points.type() != CV_32FC3) {
     points.create(disparity.size(), CV_32FC3);
     points.setTo(cv::Scalar::all(kNan));
@@ -392,8 +400,26 @@ std::vector<Obstacle> ObstacleDetector::cluster(const std::vector<Stixel>& stixe
   return out;
 }
 
+GroundTracker& GroundTracks::of(PairBand band) {
+  for (auto& [b, tracker] : trackers_) {
+    if (b == band) return tracker;
+  }
+  trackers_.emplace_back(band, GroundTracker(options_));
+  return trackers_.back().second;
+}
+
+void GroundTracks::reset() {
+  for (auto& entry : trackers_) entry.second.reset();
+}
+
 PairObstacles ObstacleDetector::from_disparity(PairBand band, const cv::Mat& disparity,
                                                const GroundPlane* rig_ground) const {
+  return analyse(band, disparity, rig_ground, nullptr);
+}
+
+PairObstacles ObstacleDetector::analyse(PairBand band, const cv::Mat& disparity,
+                                        const GroundPlane* rig_ground,
+                                        GroundTracker* tracker) const {
   const Pair& p = pair(band);
   const auto& r = p.reduced.grid.intrinsics();
   if (disparity.type() != CV_32FC1 || disparity.size() != cv::Size(r.width, r.height)) {
@@ -413,8 +439,19 @@ PairObstacles ObstacleDetector::from_disparity(PairBand band, const cv::Mat& dis
     out.ground.plane = plane_in_frame(*rig_ground, p.setup.geometry.T_ref_left_rect);
     out.ground_from_other = true;
   } else {
-    out.ground =
-        fit_ground(points, p.row_beta, r.f * p.reduced.baseline_m, p.prior, options_.ground);
+    const double f_baseline = r.f * p.reduced.baseline_m;
+    if (tracker != nullptr && tracker->tracking()) {
+      // About the last frame's ground; the prior's search where that finds none or one the
+      // prior's search would not have accepted.
+      out.ground = fit_ground(points, p.row_beta, f_baseline, tracker->centre(p.prior),
+                              tracker->search_options(options_.ground));
+      out.ground_tracked =
+          out.ground.ok() && within_search(out.ground.plane, p.prior, options_.ground);
+    }
+    if (!out.ground_tracked) {
+      out.ground = fit_ground(points, p.row_beta, f_baseline, p.prior, options_.ground);
+    }
+    if (tracker != nullptr) tracker->update(out.ground);
   }
   const Eigen::Isometry3d T_rect_reporting = p.T_reporting_rect.inverse();
   out.ground_reporting = plane_in_frame(out.ground.plane, T_rect_reporting);
@@ -445,11 +482,25 @@ PairObstacles ObstacleDetector::from_disparity(PairBand band, const cv::Mat& dis
   return out;
 }
 
+DenseOptions ObstacleDetector::dense_options_for(const cv::Mat& left) const {
+  DenseOptions o = options_.dense;
+  if (left.type() == CV_16UC1) o.texture_noise_factor = options_.counts_texture_noise_factor;
+  return o;
+}
+
 cv::Mat ObstacleDetector::disparity(PairBand band, const cv::Mat& left,
                                     const cv::Mat& right) const {
   cv::Mat left8, right8;
   reduce_pair(band, left, right, left8, right8);
-  return dense_disparity(left8, right8, max_disparity_px_, options_.dense);
+  const DenseOptions dense = dense_options_for(left);
+  // Block matching gives a disparity to no more pixels than have a block with texture: where
+  // that is less than the ground fit needs (min_valid_share, then no_disparity), not matched
+  // (on the simulated road the infrared pair's, whose detail is its fixed pattern).
+  if (dense.method == DenseMethod::block_matching &&
+      textured_share(left8, dense) < options_.ground.min_valid_share) {
+    return cv::Mat(left8.size(), CV_32FC1, cv::Scalar(kNan));
+  }
+  return dense_disparity(left8, right8, max_disparity_px_, dense);
 }
 
 PairObstacles ObstacleDetector::detect_pair(PairBand band, const cv::Mat& left,
@@ -457,9 +508,28 @@ PairObstacles ObstacleDetector::detect_pair(PairBand band, const cv::Mat& left,
   return from_disparity(band, disparity(band, left, right));
 }
 
+PairObstacles ObstacleDetector::detect_pair(PairBand band, const cv::Mat& left,
+                                            const cv::Mat& right, GroundTracker& tracker) const {
+  return analyse(band, disparity(band, left, right), nullptr, &tracker);
+}
+
 ObstacleResult ObstacleDetector::detect(const cv::Mat& visible_left, const cv::Mat& visible_right,
                                         const cv::Mat& infrared_left,
                                         const cv::Mat& infrared_right) const {
+  return detect_with(visible_left, visible_right, infrared_left, infrared_right, nullptr);
+}
+
+ObstacleResult ObstacleDetector::detect(const cv::Mat& visible_left, const cv::Mat& visible_right,
+                                        const cv::Mat& infrared_left, const cv::Mat& infrared_right,
+                                        GroundTracks& tracks) const {
+  return detect_with(visible_left, visible_right, infrared_left, infrared_right, &tracks);
+}
+
+ObstacleResult ObstacleDetector::detect_with(const cv::Mat& visible_left,
+                                             const cv::Mat& visible_right,
+                                             const cv::Mat& infrared_left,
+                                             const cv::Mat& infrared_right,
+                                             GroundTracks* tracks) const {
   std::vector<std::pair<PairBand, cv::Mat>> disparities;
   for (const Pair& p : pairs_) {
     const bool visible = p.setup.band == PairBand::visible;
@@ -468,13 +538,25 @@ ObstacleResult ObstacleDetector::detect(const cv::Mat& visible_left, const cv::M
     if (l.empty() && r.empty()) continue;
     disparities.emplace_back(p.setup.band, disparity(p.setup.band, l, r));
   }
-  return from_disparities(disparities);
+  return from_disparities_with(disparities, tracks);
 }
 
 ObstacleResult ObstacleDetector::from_disparities(
     const std::vector<std::pair<PairBand, cv::Mat>>& disparities) const {
+  return from_disparities_with(disparities, nullptr);
+}
+
+ObstacleResult ObstacleDetector::from_disparities(
+    const std::vector<std::pair<PairBand, cv::Mat>>& disparities, GroundTracks& tracks) const {
+  return from_disparities_with(disparities, &tracks);
+}
+
+ObstacleResult ObstacleDetector::from_disparities_with(
+    const std::vector<std::pair<PairBand, cv::Mat>>& disparities, GroundTracks* tracks) const {
   std::vector<PairObstacles> found;
-  for (const auto& [band, d] : disparities) found.push_back(from_disparity(band, d));
+  for (const auto& [band, d] : disparities) {
+    found.push_back(analyse(band, d, nullptr, tracks != nullptr ? &tracks->of(band) : nullptr));
+  }
   // A pair without a ground of its own on the other's (in the rig frame).
   for (std::size_t i = 0; i < found.size() && options_.share_ground; ++i) {
     if (found[i].ok()) continue;

@@ -133,3 +133,46 @@ TEST(FitGround, BadInputIsNamed) {
   EXPECT_THROW(ob::fit_ground(g.points_on(prior), {0.1, 0.2}, kFBaseline, prior),
                std::invalid_argument);
 }
+
+TEST(GroundTracker, SearchesAboutTheLastGroundAndFallsBackToThePrior) {
+  const Grid g;
+  const ob::GroundPlane prior = ob::prior_plane({1.4, 0.0, 0.0});
+  const ob::GroundOptions options;
+  ob::GroundTracker tracker;
+  EXPECT_FALSE(tracker.tracking());
+  EXPECT_EQ(&tracker.centre(prior), &prior);
+  EXPECT_EQ(tracker.search_options(options).max_pitch_change_rad, options.max_pitch_change_rad);
+  // The vehicle pitched 2.5 deg down: found about the prior, then searched about it, narrower.
+  const ob::GroundPlane pitched = ob::prior_plane({1.35, 0.0436, 0.0});
+  ob::GroundFit fit = ob::fit_ground(g.points_on(pitched), g.row_beta(), kFBaseline, prior);
+  ASSERT_TRUE(fit.ok()) << fit.message;
+  tracker.update(fit);
+  ASSERT_TRUE(tracker.tracking());
+  EXPECT_NEAR(ob::pitch_of(tracker.centre(prior)), 0.0436, 0.002);
+  const ob::GroundOptions narrow = tracker.search_options(options);
+  EXPECT_EQ(narrow.max_pitch_change_rad, tracker.options().max_pitch_change_rad);
+  EXPECT_EQ(narrow.max_height_factor, tracker.options().max_height_factor);
+  // Another degree down: within the narrow search.
+  const ob::GroundPlane further = ob::prior_plane({1.35, 0.0611, 0.0});
+  fit =
+      ob::fit_ground(g.points_on(further), g.row_beta(), kFBaseline, tracker.centre(prior), narrow);
+  ASSERT_TRUE(fit.ok()) << fit.message;
+  EXPECT_NEAR(ob::pitch_of(fit.plane), 0.0611, 0.002);
+  EXPECT_NEAR(fit.plane.height_m, 1.35, 0.01);
+  tracker.update(fit);
+  // 4 deg from the last ground is beyond the narrow search (the prior's would take it).
+  const ob::GroundPlane jumped = ob::prior_plane({1.35, 0.0611 - 0.07, 0.0});
+  EXPECT_FALSE(ob::fit_ground(g.points_on(jumped), g.row_beta(), kFBaseline, tracker.centre(prior),
+                              tracker.search_options(options))
+                   .ok());
+  EXPECT_TRUE(ob::within_search(fit.plane, prior, options));
+  // A frame without ground: the prior's search again.
+  ob::GroundPlane wall;
+  wall.normal = Eigen::Vector3d::UnitZ();
+  wall.height_m = 4.0;
+  tracker.update(ob::fit_ground(g.points_on(wall), g.row_beta(), kFBaseline, prior));
+  EXPECT_FALSE(tracker.tracking());
+  EXPECT_EQ(tracker.search_options(options).max_height_factor, options.max_height_factor);
+  EXPECT_THROW(ob::GroundTracker({0.0, 1.05}), std::invalid_argument);
+  EXPECT_THROW(ob::GroundTracker({0.02, 1.0}), std::invalid_argument);
+}

@@ -218,6 +218,45 @@ TEST(ObstacleDetector, APairWithoutGroundTakesTheOthersWhenAskedTo) {
   }
 }
 
+TEST(ObstacleDetector, TracksTheGroundFromFrameToFrame) {
+  // A road, the same road (searched about the first frame's ground), a wall filling the view
+  // (no ground: the track is dropped), the road again (the prior's search).
+  const ob::ObstacleDetector d = synthetic_detector();
+  const cv::Mat road = synthetic_disparity(d, {{12.0, 0.5, 1.5, 0.8}});
+  const cv::Mat wall = synthetic_disparity(d, {}, 3.0);
+  ob::GroundTracks tracks;
+  const ob::ObstacleResult untracked = d.from_disparities({{ob::PairBand::visible, road}});
+  const std::vector<std::pair<cv::Mat, bool>> frames = {
+      {road, false}, {road, true}, {wall, false}, {road, false}};
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    const ob::ObstacleResult r =
+        d.from_disparities({{ob::PairBand::visible, frames[i].first}}, tracks);
+    ASSERT_EQ(r.pairs.size(), 1u);
+    const ob::PairObstacles& p = r.pairs[0];
+    const bool ground = frames[i].first.data == road.data;
+    EXPECT_EQ(p.ok(), ground) << "frame " << i << ": " << p.ground.message;
+    EXPECT_EQ(p.ground_tracked, frames[i].second) << "frame " << i;
+    EXPECT_EQ(tracks.of(ob::PairBand::visible).tracking(), ground) << "frame " << i;
+    if (!ground) continue;
+    EXPECT_NEAR(p.ground.plane.height_m, untracked.pairs[0].ground.plane.height_m, 1e-3);
+    ASSERT_EQ(r.obstacles.size(), 1u) << "frame " << i;
+    EXPECT_NEAR(r.obstacles[0].distance_m, untracked.obstacles[0].distance_m, 0.05);
+  }
+  tracks.reset();
+  EXPECT_FALSE(tracks.of(ob::PairBand::visible).tracking());
+}
+
+TEST(ObstacleDetector, InfraredCountsAreMatchedWithTheirOwnTextureFactor) {
+  // Counts are matched as their stretched detail, whose noise estimate is a share of it.
+  ob::ObstacleOptions options;
+  options.dense.texture_noise_factor = 2.5;
+  options.counts_texture_noise_factor = 1.5;
+  const ob::ObstacleDetector d = synthetic_detector(options);
+  EXPECT_EQ(d.dense_options_for(cv::Mat(4, 4, CV_16UC1)).texture_noise_factor, 1.5);
+  EXPECT_EQ(d.dense_options_for(cv::Mat(4, 4, CV_8UC1)).texture_noise_factor, 2.5);
+  EXPECT_EQ(d.dense_options_for(cv::Mat(4, 4, CV_8UC3)).texture_noise_factor, 2.5);
+}
+
 TEST(ObstacleDetector, BadInputIsNamed) {
   const ob::ObstacleDetector d = synthetic_detector();
   EXPECT_THROW(d.from_disparity(ob::PairBand::visible, cv::Mat(10, 10, CV_32F)),
@@ -298,6 +337,106 @@ TEST(ObstacleDetectorOnSimulatedStreet, FindsTheGroundThePersonAndThePole) {
     }
     ASSERT_NE(found, nullptr) << t.id << " at " << nearest << " m, box " << truth_box;
     EXPECT_NEAR(found->distance_m, nearest, 0.06 * nearest) << t.id;
+  }
+}
+
+TEST(DenseDisparity, TheNoiseOfAnImageIsMeasured) {
+  // Flat grey with white noise of sigma 3, and the same on a ramp (planar intensity cancels).
+  cv::Mat noise(200, 300, CV_32F);
+  cv::RNG rng(5);
+  rng.fill(noise, cv::RNG::NORMAL, 0, 3);
+  cv::Mat ramp(noise.size(), CV_32F);
+  for (int y = 0; y < ramp.rows; ++y)
+    for (int x = 0; x < ramp.cols; ++x) ramp.at<float>(y, x) = 60.0f + 0.3f * x + 0.2f * y;
+  cv::Mat flat8, ramp8;
+  cv::Mat(noise + 128).convertTo(flat8, CV_8U);
+  cv::Mat(noise + ramp).convertTo(ramp8, CV_8U);
+  EXPECT_NEAR(ob::image_noise_sigma(flat8), 3.0, 0.3);
+  EXPECT_NEAR(ob::image_noise_sigma(ramp8), 3.0, 0.3);
+  // The block threshold follows the noise; without the factor it is the fixed one.
+  ob::DenseOptions options;
+  const int threshold = ob::block_texture_threshold(flat8, options);
+  EXPECT_NEAR(threshold, options.texture_noise_factor * 49 * std::sqrt(24 / M_PI) * 3.0,
+              0.12 * threshold);
+  options.texture_noise_factor = 0;
+  EXPECT_EQ(ob::block_texture_threshold(flat8, options), options.texture_threshold);
+  EXPECT_THROW(ob::image_noise_sigma(cv::Mat(10, 10, CV_16UC1)), std::invalid_argument);
+}
+
+TEST(DenseDisparity, AFeaturelessSurfaceGivesNoDisparityInItsNoise) {
+  // Both eyes see one flat grey surface with its own sensor noise (sigma 1.5) and a textured
+  // band, shifted by 6 px, across the middle: disparities on the band only.
+  cv::Mat texture(120, 220, CV_32F), left_noise(texture.size(), CV_32F),
+      right_noise(texture.size(), CV_32F);
+  cv::RNG rng(9);
+  rng.fill(texture, cv::RNG::UNIFORM, -40, 40);
+  cv::GaussianBlur(texture, texture, cv::Size(0, 0), 1.0);
+  rng.fill(left_noise, cv::RNG::NORMAL, 0, 1.5);
+  rng.fill(right_noise, cv::RNG::NORMAL, 0, 1.5);
+  const cv::Rect band(0, 50, 220, 20);
+  cv::Mat left_f(texture.size(), CV_32F, cv::Scalar(100)), right_f = left_f.clone();
+  left_f(band) += texture(band);
+  cv::Mat shifted;
+  const cv::Mat shift = (cv::Mat_<double>(2, 3) << 1, 0, -6, 0, 1, 0);
+  cv::warpAffine(texture, shifted, shift, texture.size(), cv::INTER_LINEAR, cv::BORDER_REFLECT);
+  right_f(band) += shifted(band);
+  cv::Mat left, right;
+  cv::Mat(left_f + left_noise).convertTo(left, CV_8U);
+  cv::Mat(right_f + right_noise).convertTo(right, CV_8U);
+  auto off_band = [&](const cv::Mat& d) {
+    int n = 0;
+    for (int y = 0; y < d.rows; ++y)
+      for (int x = 40; x < d.cols; ++x)
+        if (std::abs(y - 60) > 15 && std::isfinite(d.at<float>(y, x))) ++n;
+    return n;
+  };
+  auto on_band = [&](const cv::Mat& d) {
+    int n = 0;
+    for (int y = 55; y < 65; ++y)
+      for (int x = 40; x < d.cols - 10; ++x)
+        if (std::abs(d.at<float>(y, x) - 6.0f) < 0.5f) ++n;
+    return n;
+  };
+  ob::DenseOptions options;
+  const cv::Mat d = ob::dense_disparity(left, right, 20, options);
+  EXPECT_EQ(off_band(d), 0);
+  // The blocks with texture: those over the band (its 20 rows and a few of the 6 rows that
+  // reach into it, of 114 block rows), no others.
+  const double textured = ob::textured_share(left, options);
+  EXPECT_GT(textured, 14.0 / 114.0);
+  EXPECT_LT(textured, 26.0 / 114.0);
+  EXPECT_LT(ob::textured_share(left(cv::Rect(0, 0, 220, 40)), options), 0.01);
+  EXPECT_GT(on_band(d), 0.8 * 10 * 170);
+  options.texture_noise_factor = 0;  // the fixed threshold alone: matches in the noise
+  EXPECT_GT(off_band(ob::dense_disparity(left, right, 20, options)), 20);
+}
+
+// The simulated street without its targets and walls (a textured road, its verges, the dashed
+// centre line, the horizon): no obstacle in a few frames, the ground found in each.
+TEST(ObstacleDetectorOnSimulatedStreet, AnEmptyRoadGivesNoObstacle) {
+  namespace pl = thermovis::pipeline;
+  namespace sim = thermovis::sim;
+  const auto rig = thermovis::runtime::load_rig(thermovis::runtime::default_rig_path());
+  sim::Scene scene =
+      thermovis::runtime::load_scene(thermovis::runtime::shipped_scene_path("street"));
+  scene.targets.clear();
+  scene.walls.clear();
+  const sim::SimulatedRig simulated(rig, scene, 2);
+  pl::CapturePipeline pipeline(rig);
+  const pl::PipelineGeometry& g = pipeline.geometry();
+  const ob::ObstacleDetector d(g.grid, {{ob::PairBand::visible, g.ranging(pl::Band::visible)}},
+                               g.T_ref_reporting, ob::GroundPrior{scene.camera_height_m, 0.0, 0.0});
+  sim::FrameSet frames = simulated.allocate();
+  for (std::int64_t frame = 0; frame < 6; ++frame) {
+    simulated.render(frame, frames);
+    const pl::GridCapture c =
+        pipeline.rectify({frames[sim::Slot::visible_left], frames[sim::Slot::visible_right],
+                          frames[sim::Slot::infrared_left], frames[sim::Slot::infrared_right]});
+    const ob::PairObstacles r = d.detect_pair(ob::PairBand::visible, c.grey_left, c.grey_right);
+    ASSERT_TRUE(r.ok()) << "frame " << frame << ": " << r.ground.message;
+    EXPECT_TRUE(r.obstacles.empty())
+        << "frame " << frame << ": " << r.obstacles.size() << " obstacles, the first at "
+        << r.obstacles.front().distance_m << " m, box " << r.obstacles.front().box;
   }
 }
 

@@ -57,6 +57,13 @@ struct ObstacleOptions {
   double min_distance_m = 2.5;      // the nearest obstacle searched (disparity range, bottom row)
   double max_distance_m = 60.0;     // stixels farther are dropped; free space where none
   DenseOptions dense;
+  // DenseOptions::texture_noise_factor for infrared counts (CV_16UC1), matched as their local
+  // detail stretched to a fixed spread (grey_pair): there the noise estimate is a share of the
+  // detail, not the sensor's level, and the real thermal pair of the MS2 road frame (ground
+  // and van found with the fixed threshold) keeps 2.5 % of its pixels at 2.5. At 1.5 a block of
+  // noise alone (its texture's spread over 49 px about a sixth of its mean) passes in well
+  // under 1 of 1000; the simulated cameras' fixed pattern, the whole detail, passes nowhere.
+  double counts_texture_noise_factor = 1.5;
   GroundOptions ground;
   double min_height_m = 0.15;             // a pixel this high above the ground (+ 3 sigma) stands
   double disparity_sigma_px = 0.25;       // one pixel's disparity noise, reduced px (height test)
@@ -75,10 +82,10 @@ struct ObstacleOptions {
   double cluster_tolerance_share = 0.08;  // + this share of their distance
   int max_cluster_gap_columns = 2;        // reduced columns without a stixel inside an obstacle
   // A pair that finds no ground of its own takes the other pair's (detect()). Off: on the
-  // simulated street the infrared pair's road is its cameras' fixed pattern, and its stixels
-  // on the visible pair's ground gave 9.7 false obstacles per empty-road frame against the
-  // visible pair's 0.54, for 96.2 % recall against 95.5 % (`thermovis bench obstacles
-  // --share-ground`).
+  // simulated street the infrared pair's road is its cameras' fixed pattern; before the
+  // noise-relative texture threshold (DenseOptions::texture_noise_factor) its stixels on the
+  // visible pair's ground gave 9.7 false obstacles per empty-road frame, and with it the pair
+  // has no disparity to give stixels (`thermovis bench obstacles --share-ground`).
   bool share_ground = false;
 };
 
@@ -111,8 +118,10 @@ struct PairObstacles {
   PairBand band = PairBand::visible;
   GroundFit ground;                // the pair's left rectified frame
   bool ground_from_other = false;  // the other pair's ground (the pair found none of its own)
-  GroundPlane ground_reporting;    // the same plane in the reporting frame
-  std::vector<Stixel> stixels;     // every column's (also those no obstacle keeps)
+  // Found by the search about the last frame's ground (detect with GroundTracks).
+  bool ground_tracked = false;
+  GroundPlane ground_reporting;  // the same plane in the reporting frame
+  std::vector<Stixel> stixels;   // every column's (also those no obstacle keeps)
   std::vector<Obstacle> obstacles;
   // Per pipeline grid column: distance to the first obstacle, m; max_distance_m where there is
   // none; NaN everywhere when the ground was not found.
@@ -126,6 +135,19 @@ struct ObstacleResult {
   // Per grid column: the nearest of the pairs that found the ground; NaN where none did.
   std::vector<float> free_space_m;
   bool ok() const;  // some pair found the ground
+};
+
+// Each pair's GroundTracker (ground.hpp) over the frames of one camera stream, for
+// ObstacleDetector::detect(..., tracks): made on a pair's first frame.
+class GroundTracks {
+ public:
+  explicit GroundTracks(const GroundTrackerOptions& options = {}) : options_(options) {}
+  GroundTracker& of(PairBand band);
+  void reset();  // every pair's search about its prior again (a new stream, the rig moved)
+
+ private:
+  GroundTrackerOptions options_;
+  std::vector<std::pair<PairBand, GroundTracker>> trackers_;
 };
 
 class ObstacleDetector {
@@ -147,6 +169,10 @@ class ObstacleDetector {
   // One pair's rectified images on the pipeline grid (CV_8UC1, CV_8UC3 or CV_16UC1 counts).
   // Throws std::invalid_argument for a band not set up or images of another size or type.
   PairObstacles detect_pair(PairBand band, const cv::Mat& left, const cv::Mat& right) const;
+  // The same, the ground searched about `tracker`'s last one (GroundTracker), which takes this
+  // frame's: one tracker per pair and camera stream.
+  PairObstacles detect_pair(PairBand band, const cv::Mat& left, const cv::Mat& right,
+                            GroundTracker& tracker) const;
   // The same from a disparity already on the pair's reduced grid (CV_32FC1, reduced px, NaN
   // where none): what detect_pair does after matching. With `rig_ground` (the rig frame) that
   // plane is the ground instead of the pair's own fit (GroundFit::message says so).
@@ -154,6 +180,9 @@ class ObstacleDetector {
                                const GroundPlane* rig_ground = nullptr) const;
   // The pair's dense disparity on its reduced grid.
   cv::Mat disparity(PairBand band, const cv::Mat& left, const cv::Mat& right) const;
+  // The dense options a pair's images are matched with: options().dense, for infrared counts
+  // (CV_16UC1) with counts_texture_noise_factor.
+  DenseOptions dense_options_for(const cv::Mat& left) const;
   // The reduced pair as the matcher reads it (grey, cropped and averaged).
   void reduce_pair(PairBand band, const cv::Mat& left, const cv::Mat& right, cv::Mat& left8,
                    cv::Mat& right8) const;
@@ -162,9 +191,17 @@ class ObstacleDetector {
   // that finds no ground of its own takes the other's where that one found it.
   ObstacleResult detect(const cv::Mat& visible_left, const cv::Mat& visible_right,
                         const cv::Mat& infrared_left, const cv::Mat& infrared_right) const;
+  // The same, each pair's ground searched about its ground of the last frame given to `tracks`
+  // (narrower: GroundTracker), about the prior where there is none or that search fails; the
+  // tracks take this frame's grounds.
+  ObstacleResult detect(const cv::Mat& visible_left, const cv::Mat& visible_right,
+                        const cv::Mat& infrared_left, const cv::Mat& infrared_right,
+                        GroundTracks& tracks) const;
   // The same from each pair's disparity on its reduced grid.
   ObstacleResult from_disparities(
       const std::vector<std::pair<PairBand, cv::Mat>>& disparities) const;
+  ObstacleResult from_disparities(const std::vector<std::pair<PairBand, cv::Mat>>& disparities,
+                                  GroundTracks& tracks) const;
   ObstacleResult combine(std::vector<PairObstacles> pairs) const;
 
  private:
@@ -176,8 +213,20 @@ class ObstacleDetector {
     GroundPlane prior;               // in the pair's left rectified frame
     Eigen::Isometry3d T_reporting_rect = Eigen::Isometry3d::Identity();
     std::vector<double> row_beta;  // per reduced row, rad
+    // sin and cos of the angle alpha of each reduced left column, and of the right eye's
+    // columns from first_right_step / 16 px on in 1/16 px steps (NaN sine past 90 deg).
+    std::vector<double> sin_left, cos_left, sin_right, cos_right;
+    int first_right_step = 0;
   };
   const Pair& pair(PairBand band) const;
+  // from_disparity; with a tracker, the ground searched about its last one first (detect).
+  PairObstacles analyse(PairBand band, const cv::Mat& disparity, const GroundPlane* rig_ground,
+                        GroundTracker* tracker) const;
+  ObstacleResult detect_with(const cv::Mat& visible_left, const cv::Mat& visible_right,
+                             const cv::Mat& infrared_left, const cv::Mat& infrared_right,
+                             GroundTracks* tracks) const;
+  ObstacleResult from_disparities_with(const std::vector<std::pair<PairBand, cv::Mat>>& disparities,
+                                       GroundTracks* tracks) const;
   // Each pixel's point (left rectified frame, NaN where it has none) into `points` (made the
   // disparity's size when it is not): the columns the ground is fitted on
   // (GroundOptions::column_step), or the others.
