@@ -36,6 +36,8 @@ int main(int argc, char** argv) {
                  "farthest obstacle reported (the free space where none)")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  app.add_flag("--track-ground", config.track_ground,
+               "search each pair's ground about its last capture's (a vehicle that pitches)");
   app.add_flag("--no-targets", no_targets,
                "do not merge the ranged targets of thermovis/ranges (obstacles only)");
   app.add_option("--range-wait-ms", range_wait_ms,

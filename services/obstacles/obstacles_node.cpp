@@ -173,6 +173,7 @@ void ObstaclesNode::take_frames(BandInput& input) {
         // The writer counts from the start again: captures of the old count are let go.
         captures_.clear();
         ranges_.clear();
+        tracks_.reset();
       }
       const std::int64_t start_ns = transport::now_ns();
       const cv::Size grid = stage_.geometry().grid_size();
@@ -184,7 +185,14 @@ void ObstaclesNode::take_frames(BandInput& input) {
                                     ? "expected MONO16 infrared counts"
                                     : "16-bit pixels in an 8-bit band"));
       }
-      ob::PairObstacles pair = stage_.stage().detect_pair(input.band, left, right);
+      if (tracked_geometry_ != stage_.id()) {
+        tracks_.reset();  // another grid: the grounds tracked were of the old one
+        tracked_geometry_ = stage_.id();
+      }
+      ob::PairObstacles pair =
+          config_.track_ground
+              ? stage_.stage().detect_pair(input.band, left, right, tracks_.of(input.band))
+              : stage_.stage().detect_pair(input.band, left, right);
       if (!frames.still_valid(i)) {
         // The writer reused the sample while it was read: a torn image, dropped.
         ++stats_.overwritten;

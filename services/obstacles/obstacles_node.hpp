@@ -34,6 +34,9 @@ struct ObstaclesConfig {
   std::chrono::nanoseconds deadline{30'000'000};  // frame topics' DEADLINE
   std::chrono::milliseconds range_wait{15};       // a capture waits this long for its ranges
   bool with_targets = true;                       // merge the ranges of thermovis/ranges
+  // Each pair's ground searched about its last capture's (obstacle::GroundTracker), the
+  // mounting's prior when that fails: a vehicle that pitches. Off: about the prior every time.
+  bool track_ground = false;
   // A capture whose other pair has not come this long after its first is published with the
   // one pair it has.
   std::chrono::milliseconds partner_wait{25};
@@ -90,6 +93,8 @@ class ObstaclesNode {
   transport::Writer<ObstacleArray> out_;
   node::HealthReporter health_;
   std::map<std::uint64_t, Capture> captures_;  // by seq
+  obstacle::GroundTracks tracks_;              // with track_ground
+  std::uint32_t tracked_geometry_ = 0;         // the geometry id the tracks were made on
   node::SeqBuffer<RangeArray> ranges_;
   std::chrono::steady_clock::time_point last_range_{};
   ObstaclesStats stats_;

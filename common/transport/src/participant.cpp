@@ -182,15 +182,22 @@ Participant::Participant(const ParticipantConfig& config) : state_(std::make_sha
   }
   if (qos.wire_protocol().participant_id < 0) {
     // Ports no dead process left behind (fresh_participant_id); the secured profile announces
-    // itself to the ports of ids 0..15, the others to 0..31 (their initial peers' range).
+    // itself to the ports of ids 0..15, the others to 0..31 (their initial peers' range). The
+    // ids this process's participants took are skipped too: a profile without the SHM transport
+    // leaves no port file to tell them by, and Fast DDS refuses an id twice in one process.
+    static std::mutex taken_mutex;
+    static std::set<int> taken;
+    const std::lock_guard<std::mutex> lock(taken_mutex);
     const auto& port = qos.wire_protocol().port;
     const int max_ids = is_secure(qos) ? 16 : 32;
-    qos.wire_protocol().participant_id = fresh_participant_id(
-        [&](int id) {
+    const int id = fresh_participant_id(
+        [&](int candidate) {
           return port.portBase + port.domainIDGain * static_cast<std::uint32_t>(config.domain_id) +
-                 port.offsetd1 + port.participantIDGain * static_cast<std::uint32_t>(id);
+                 port.offsetd1 + port.participantIDGain * static_cast<std::uint32_t>(candidate);
         },
-        max_ids);
+        max_ids, taken);
+    qos.wire_protocol().participant_id = id;
+    if (id >= 0) taken.insert(id);
   }
   state_->domain_id = config.domain_id;
   state_->profile = config.profile;

@@ -79,7 +79,8 @@ std::set<std::string> mapped_by_live_processes(const std::string& prefix) {
 }  // namespace
 
 int fresh_participant_id(const std::function<std::uint32_t(int)>& metatraffic_port, int max_ids,
-                         std::chrono::seconds min_age, const std::filesystem::path& shm_dir) {
+                         const std::set<int>& skip, std::chrono::seconds min_age,
+                         const std::filesystem::path& shm_dir) {
   namespace fs = std::filesystem;
   std::error_code ec;
   if (!fs::is_directory(shm_dir, ec)) return -1;
@@ -99,6 +100,7 @@ int fresh_participant_id(const std::function<std::uint32_t(int)>& metatraffic_po
     return !fs::exists(file, ec);
   };
   for (int id = 0; id < max_ids; ++id) {
+    if (skip.count(id) > 0) continue;
     const std::uint32_t port = metatraffic_port(id);
     // Both unicast ports (metatraffic, user: the next number), each checked (and freed) first.
     const bool metatraffic_free = port_free(port);

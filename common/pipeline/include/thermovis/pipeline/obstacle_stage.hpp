@@ -81,6 +81,13 @@ class ObstacleStage {
                                       const cv::Mat& right) const {
     return detector_.detect_pair(band, left, right);
   }
+  // The same, the ground searched about the pair's last one (obstacle::GroundTracker: one per
+  // pair and stream of captures), which takes this capture's.
+  obstacle::PairObstacles detect_pair(obstacle::PairBand band, const cv::Mat& left,
+                                      const cv::Mat& right,
+                                      obstacle::GroundTracker& tracker) const {
+    return detector_.detect_pair(band, left, right, tracker);
+  }
   // The pairs' obstacles combined (one or both).
   obstacle::ObstacleResult combine(std::vector<obstacle::PairObstacles> pairs) const {
     return detector_.combine(std::move(pairs));

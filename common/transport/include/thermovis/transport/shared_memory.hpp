@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <functional>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -52,7 +53,9 @@ StaleSegments remove_stale_data_sharing_segments(
 // busy port on; a service restarted after a SIGKILL so took its dead predecessor's ports, which
 // the SHM transport opens only after their health check has timed out (1 s per port): the
 // restart then stalled 2 s more.
+// Ids in `skip` are not taken (this process's own participants).
 int fresh_participant_id(const std::function<std::uint32_t(int)>& metatraffic_port, int max_ids,
+                         const std::set<int>& skip = {},
                          std::chrono::seconds min_age = std::chrono::seconds(2),
                          const std::filesystem::path& shm_dir = "/dev/shm");
 
