@@ -183,6 +183,28 @@ const std::vector<sim::TargetTruth>& PipelineSession::truth_at(std::uint64_t seq
   return truth_by_frame_.emplace(frame, sim_->truth(frame)).first->second;
 }
 
+const std::vector<std::pair<cv::Rect, double>>& PipelineSession::grid_truth_at(
+    std::uint64_t seq, const pipeline::PipelineGeometry& g, const Eigen::Vector3d& down) {
+  const bool cycled = options_.prerender > 0;
+  const std::int64_t frame =
+      cycled ? static_cast<std::int64_t>(seq % options_.prerender) : static_cast<std::int64_t>(seq);
+  if (const auto it = grid_truth_by_frame_.find(frame); it != grid_truth_by_frame_.end())
+    return it->second;
+  if (!cycled) {
+    while (!grid_truth_by_frame_.empty() && grid_truth_by_frame_.begin()->first + 8 < frame)
+      grid_truth_by_frame_.erase(grid_truth_by_frame_.begin());
+  }
+  std::vector<std::pair<cv::Rect, double>> seen;
+  for (const sim::TargetTruth& t : truth_at(seq)) {
+    double nearest = 1e300;
+    for (const Eigen::Vector3d& p : t.surface_points_m)
+      nearest = std::min(nearest, (p - down.dot(p) * down).norm());
+    seen.emplace_back(pipeline::points_box_on_grid(g, pipeline::Band::visible, t.surface_points_m),
+                      nearest);
+  }
+  return grid_truth_by_frame_.emplace(frame, std::move(seen)).first->second;
+}
+
 void PipelineSession::kill_service(const std::string& name) {
   for (const auto& status : supervisor_->services()) {
     if (status.name != name) continue;
@@ -256,25 +278,32 @@ std::vector<CheckedObstacle> PipelineSession::step_obstacles() {
       c.seq = array.frame_seq();
       c.obstacle = o;
       c.latency_ms = latency;
-      // The truth distance an entry measures: a target's centre, else its nearest surface.
-      const auto truth_distance = [&](const sim::TargetTruth& t) {
-        if (o.has_target()) return horizontal(t.position_m);
-        double d = 1e300;
-        for (const Eigen::Vector3d& p : t.surface_points_m) d = std::min(d, horizontal(p));
-        return d;
-      };
-      // Of the targets on its line of sight, the one at its distance (within 15 % + 0.5 m, as
-      // `bench obstacles` counts them); one farther off is another object before or behind it.
-      const Eigen::Vector3d at(o.x_m(), o.y_m(), o.z_m());
-      for (const sim::TargetTruth& t : truth) {
-        if (!truth_on_line_of_sight({t}, at)) continue;
-        const double d = truth_distance(t);
-        const double error = o.distance_m() - d;
-        if (std::abs(error) > kObstacleTruthToleranceM + kObstacleTruthToleranceShare * d) continue;
-        if (!c.truth || std::abs(error) < std::abs(c.error_m)) {
-          c.truth = t;
-          c.truth_distance_m = d;
-          c.error_m = error;
+      if (o.has_target()) {
+        // A ranged target: the simulated target on its range's line of sight, as its range
+        // line has it, at its centre's horizontal distance.
+        c.truth = truth_on_line_of_sight(truth, Eigen::Vector3d(o.x_m(), o.y_m(), o.z_m()));
+        if (c.truth) {
+          c.truth_distance_m = horizontal(c.truth->position_m);
+          c.error_m = o.distance_m() - c.truth_distance_m;
+        }
+      } else {
+        // Of the targets whose silhouette's box on the grid overlaps the obstacle's (a fifth of
+        // the smaller), the one at its distance within 15 % + 0.5 m, as `bench obstacles`
+        // counts them; one farther off is another object before or behind it.
+        const cv::Rect box = node::to_rect(o.box());
+        const auto& seen = grid_truth_at(array.frame_seq(), *g, down);
+        for (std::size_t k = 0; k < truth.size() && k < seen.size(); ++k) {
+          const auto& [truth_box, d] = seen[k];
+          if ((truth_box & box).area() <= 0.2 * std::min(truth_box.area(), box.area())) continue;
+          const double error = o.distance_m() - d;
+          if (std::abs(error) > kObstacleTruthToleranceM + kObstacleTruthToleranceShare * d) {
+            continue;
+          }
+          if (!c.truth || std::abs(error) < std::abs(c.error_m)) {
+            c.truth = truth[k];
+            c.truth_distance_m = d;
+            c.error_m = error;
+          }
         }
       }
       out.push_back(c);

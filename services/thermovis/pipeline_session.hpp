@@ -53,12 +53,13 @@ struct CheckedRange {
   double latency_ms = 0.0;  // capture to range, from the frame's stamps
 };
 
-// One obstacle of thermovis/obstacles with the simulated target it is, if any: of those on its
-// line of sight (truth_on_line_of_sight, from its position), the one at its distance within
-// 15 % + 0.5 m (as `thermovis bench obstacles` counts them). The truth distance is what the
-// obstacle's distance measures: horizontal, to the target's nearest surface point; for an entry
-// that is a ranged target, to the target's centre. Walls, hedges and the like are no simulated
-// targets: their obstacles have no truth.
+// One obstacle of thermovis/obstacles with the simulated target it is, if any: of the targets
+// whose silhouette's box on the grid overlaps its box (a fifth of the smaller), the one at its
+// distance within 15 % + 0.5 m (as `thermovis bench obstacles` counts them); the truth distance
+// is what the obstacle's distance measures, horizontal, to the target's nearest surface point.
+// An entry that is a ranged target has its range's truth (truth_on_line_of_sight), at the
+// target's centre. Walls, hedges and the like are no simulated targets: their obstacles have no
+// truth.
 struct CheckedObstacle {
   std::uint64_t seq = 0;
   Obstacle obstacle;
@@ -174,10 +175,15 @@ class PipelineSession {
   // range of a 50 Hz pipeline cannot spend per range. It is computed once per frame; with
   // pre-rendered captures (cycled), once per pre-rendered frame, and kept.
   const std::vector<sim::TargetTruth>& truth_at(std::uint64_t seq);
+  // Per target of truth_at(seq): its silhouette's box on the grid (left visible image) and the
+  // horizontal distance (along `down`'s plane) of its nearest surface point, kept as truth_at.
+  const std::vector<std::pair<cv::Rect, double>>& grid_truth_at(
+      std::uint64_t seq, const pipeline::PipelineGeometry& geometry, const Eigen::Vector3d& down);
 
   SessionOptions options_;
   std::unique_ptr<sim::SimulatedRig> sim_;                                // for the truth only
   std::map<std::int64_t, std::vector<sim::TargetTruth>> truth_by_frame_;  // see truth_at
+  std::map<std::int64_t, std::vector<std::pair<cv::Rect, double>>> grid_truth_by_frame_;
   std::unique_ptr<transport::Participant> participant_;
   std::unique_ptr<supervisor::Supervisor> supervisor_;
   std::unique_ptr<node::GeometrySubscriber> geometry_;
