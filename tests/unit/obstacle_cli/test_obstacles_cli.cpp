@@ -56,9 +56,10 @@ nlohmann::json run_json(const std::string& args) {
 
 }  // namespace
 
-// Measured: the RGB pair's ground 1.97 m below the camera, pitch 0.8 deg; the van 24.1 m; the
-// parked car 11.1 m. The LWIR pair's ground 1.9 m below, pitch 8.8 deg (that camera looks
-// further down); the van 21-24 m. Both need the inlier share lowered from the simulated road's
+// Measured: the RGB pair's ground 2.08 m below the camera, pitch 1.0 deg; the van 23.9-24.4 m;
+// the parked car 11.1 m. The LWIR pair's ground 1.91 m below, pitch 8.8 deg (that camera looks
+// further down); the van 20.5 m. MS2's mounting is not given: the heights are checked against
+// a roof-mounted rig's 1.5-2.4 m. Both need the inlier share lowered from the simulated road's
 // 0.4 to 0.2: hedges, trees and cars fill much of the real image's lower half.
 TEST(ObstaclesCli, TheRealRoadsGroundAndTheVanAheadInBothBands) {
   const auto frame = thermovis::test::data_path("stereo/ms2_sample/000011");
@@ -69,7 +70,8 @@ TEST(ObstaclesCli, TheRealRoadsGroundAndTheVanAheadInBothBands) {
                                       "--min-inlier-share 0.2");
   ASSERT_EQ(rgb.value("ground", ""), "ok") << rgb.dump();
   EXPECT_EQ(rgb.at("band"), "visible");
-  EXPECT_NEAR(rgb.at("ground_height_m").get<double>(), 1.8, 0.3);
+  EXPECT_GT(rgb.at("ground_height_m").get<double>(), 1.5);
+  EXPECT_LT(rgb.at("ground_height_m").get<double>(), 2.4);
   const auto van_rgb = nearest_in(rgb, {465, 165, 560, 255});
   ASSERT_TRUE(van_rgb) << rgb.dump();
   EXPECT_GT(*van_rgb, 18.0);
