@@ -330,17 +330,18 @@ int run_bench(const Options& opt) {
       if (o.kills < 2) continue;
       std::cout << "  " << service << ": killed " << o.kills << " times, recovered "
                 << o.outage_ms.size() << "; median outage " << std::setprecision(0)
-                << o.median_outage_ms() << " ms, median first range of a new capture "
+                << o.median_outage_ms() << " ms, median first result of a new capture "
                 << o.median_first_fresh_ms() << " ms after the kill\n";
     }
     for (const auto& o : session.outages()) {
       if (o.recovered) {
         std::cout << "  killed " << std::setw(12) << std::left << o.service << std::right
-                  << " ranges stopped for " << std::fixed << std::setprecision(0) << o.outage_ms
-                  << " ms (first range of a new capture " << o.first_fresh_ms
+                  << (o.service == "obstacles" ? " obstacles" : " ranges") << " stopped for "
+                  << std::fixed << std::setprecision(0) << o.outage_ms
+                  << " ms (first result of a new capture " << o.first_fresh_ms
                   << " ms after the kill)\n";
       } else {
-        std::cout << "  killed " << o.service << ": no range of a new capture before the end\n";
+        std::cout << "  killed " << o.service << ": no result of a new capture before the end\n";
       }
     }
     if (!opt.display.browser.empty())
@@ -369,11 +370,11 @@ THERMOVIS_COMMAND("bench pipeline",
                     app.add_option("--kill", opt->kill,
                                    "SERVICE[,SERVICE...]: kill each (SIGKILL) once, evenly "
                                    "spread over the measured time (a service named N times: N "
-                                   "kills); reports the outage of each, and the median per "
-                                   "service")
+                                   "kills); reports the outage of each (obstacles: of "
+                                   "thermovis/obstacles), and the median per service")
                         ->delimiter(',')
-                        ->check(
-                            CLI::IsMember({"bridge", "rectify-fuse", "detect", "match", "range"}));
+                        ->check(CLI::IsMember(
+                            {"bridge", "rectify-fuse", "detect", "match", "range", "obstacles"}));
                     app.add_option("--external-readers", opt->external_readers,
                                    "measure again with N other DDS applications reading every "
                                    "frame topic (idle, slow, crashing in turn)")

@@ -34,6 +34,8 @@
 namespace thermovis::cli {
 namespace {
 
+// The manifest's name of the obstacle service: its outages are of thermovis/obstacles.
+constexpr const char* kObstacleService = "obstacles";
 // An obstacle belongs to a simulated target on its line of sight at its distance within this.
 constexpr double kObstacleTruthToleranceM = 0.5;
 constexpr double kObstacleTruthToleranceShare = 0.15;
@@ -212,9 +214,9 @@ void PipelineSession::kill_service(const std::string& name) {
       throw std::invalid_argument("service '" + name + "' is not running");
     killed_ns_.push_back(transport::now_ns());
     killed_at_.push_back(std::chrono::steady_clock::now());
-    last_before_kill_.push_back(last_arrival_ == std::chrono::steady_clock::time_point{}
-                                    ? killed_at_.back()
-                                    : last_arrival_);
+    const auto last = name == kObstacleService ? last_obstacle_arrival_ : last_arrival_;
+    last_before_kill_.push_back(last == std::chrono::steady_clock::time_point{} ? killed_at_.back()
+                                                                                : last);
     outages_.push_back({name});
     ::kill(status.pid, SIGKILL);
     return;
@@ -222,22 +224,29 @@ void PipelineSession::kill_service(const std::string& name) {
   throw std::invalid_argument("no service '" + name + "' in the manifest");
 }
 
+void PipelineSession::note_arrival(bool obstacles, std::int64_t capture_ns,
+                                   std::chrono::steady_clock::time_point arrival) {
+  for (std::size_t k = 0; k < outages_.size(); ++k) {
+    // The obstacle service's outage ends with obstacles, every other one with ranges.
+    if ((outages_[k].service == kObstacleService) != obstacles) continue;
+    // The first result of a frame captured after the kill ends the outage.
+    if (outages_[k].recovered || capture_ns <= killed_ns_[k]) continue;
+    outages_[k].recovered = true;
+    outages_[k].first_fresh_ms =
+        std::chrono::duration<double, std::milli>(arrival - killed_at_[k]).count();
+    // From the last result received before the kill (a frame already past the killed stage,
+    // or an old one the restarted service found, may still arrive in between).
+    outages_[k].outage_ms =
+        std::chrono::duration<double, std::milli>(arrival - last_before_kill_[k]).count();
+  }
+}
+
 std::vector<CheckedRange> PipelineSession::step() {
   std::vector<CheckedRange> out;
   for (const RangeArray& array : supervisor_->step()) {
     ++frames_;
     const auto arrival = std::chrono::steady_clock::now();
-    for (std::size_t k = 0; k < outages_.size(); ++k) {
-      // The first range of a frame captured after the kill ends the outage.
-      if (outages_[k].recovered || array.capture_time_ns() <= killed_ns_[k]) continue;
-      outages_[k].recovered = true;
-      outages_[k].first_fresh_ms =
-          std::chrono::duration<double, std::milli>(arrival - killed_at_[k]).count();
-      // From the last range received before the kill (a frame already past the killed stage,
-      // or an old one the restarted service found, may still arrive in between).
-      outages_[k].outage_ms =
-          std::chrono::duration<double, std::milli>(arrival - last_before_kill_[k]).count();
-    }
+    note_arrival(false, array.capture_time_ns(), arrival);
     last_arrival_ = arrival;
     const double latency = transport::latency_ms(array.stamps(), array.capture_time_ns());
     const std::vector<sim::TargetTruth>& truth = truth_at(array.frame_seq());
@@ -269,6 +278,9 @@ std::vector<CheckedObstacle> PipelineSession::step_obstacles() {
   const auto horizontal = [&](const Eigen::Vector3d& p) { return (p - down.dot(p) * down).norm(); };
   for (std::size_t i = 0; i < arrays.size(); ++i) {
     const ObstacleArray& array = arrays[i];
+    const auto arrival = std::chrono::steady_clock::now();
+    note_arrival(true, array.capture_time_ns(), arrival);
+    last_obstacle_arrival_ = arrival;
     ++obstacle_frames_;
     const double latency = transport::latency_ms(array.stamps(), array.capture_time_ns());
     obstacle_latency_ms_.push_back(latency);

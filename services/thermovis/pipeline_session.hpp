@@ -129,7 +129,8 @@ class CpuMarks {
   std::map<int, Mark> marks_;  // by pid
 };
 
-// A service killed on purpose (SIGKILL) during a session, and how long the ranges stopped.
+// A service killed on purpose (SIGKILL) during a session, and how long the ranges stopped (the
+// obstacle service: the obstacles).
 struct ServiceOutage {
   std::string service;
   bool recovered = false;       // a range of a frame captured after the kill arrived
@@ -175,6 +176,10 @@ class PipelineSession {
   // range of a 50 Hz pipeline cannot spend per range. It is computed once per frame; with
   // pre-rendered captures (cycled), once per pre-rendered frame, and kept.
   const std::vector<sim::TargetTruth>& truth_at(std::uint64_t seq);
+  // A range array (or, `obstacles`, an obstacle array) of the capture at capture_ns arrived:
+  // the outages of the services that give it end.
+  void note_arrival(bool obstacles, std::int64_t capture_ns,
+                    std::chrono::steady_clock::time_point arrival);
   // Per target of truth_at(seq): its silhouette's box on the grid (left visible image) and the
   // horizontal distance (along `down`'s plane) of its nearest surface point, kept as truth_at.
   const std::vector<std::pair<cv::Rect, double>>& grid_truth_at(
@@ -196,7 +201,7 @@ class PipelineSession {
   std::vector<ServiceOutage> outages_;
   std::vector<std::int64_t> killed_ns_;  // capture clock at each kill (transport::now_ns)
   std::vector<std::chrono::steady_clock::time_point> killed_at_, last_before_kill_;
-  std::chrono::steady_clock::time_point last_arrival_{};
+  std::chrono::steady_clock::time_point last_arrival_{}, last_obstacle_arrival_{};
 };
 
 // The per-range line `thermovis run` prints, and its JSON form.
