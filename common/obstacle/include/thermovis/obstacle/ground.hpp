@@ -74,7 +74,11 @@ struct GroundOptions {
   double min_valid_share = 0.05;  // of the pixels: fewer with a disparity -> no_disparity
   double min_row_share = 0.35;    // of the searched rows holding ground: fewer -> no_ground
   int min_row_pixels = 4;         // pixels on the ground that make a row hold it
-  double min_inlier_share = 0.4;  // of the valid pixels in the searched rows
+  // Of the valid pixels in the searched rows. On a real road (MS2 frame 000011, both pairs)
+  // 25-38 % of them lie on the ground, where hedges, trees and cars fill much of the lower half;
+  // 0.4 rejected it. The simulated street and obstacles scenes give the same obstacles at 0.2
+  // as at 0.4 (`thermovis bench obstacles`).
+  double min_inlier_share = 0.2;
   int column_step = 4;  // the fit reads every column_step-th column (the ground spans hundreds)
   // Least-squares fits on the pixels near the plane, each on the last one's, at most (fewer
   // where it moves by less than 1e-4 of itself). Two leave the street's ground 2 cm high and
