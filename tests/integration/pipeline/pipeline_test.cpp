@@ -371,8 +371,9 @@ TEST(Pipeline, ThermovisRunPrintsRangesWithTheirTruthAndASummary) {
     EXPECT_LE(std::abs(o["error_m"].get<double>()),
               0.5 + 0.15 * o["truth_distance_m"].get<double>() + 1e-6);
   }
-  // At niceness 10 the obstacle service skips captures when the machine is busy.
-  EXPECT_GT(people, ranges.size() / 10);
+  // Under SCHED_IDLE the obstacle service skips captures, or publishes them without their
+  // ranges, while the machine is busy (other tests beside this one): some, not all, carry them.
+  EXPECT_GT(people, 0u);
   EXPECT_EQ(summary["obstacles_on_target"].get<std::size_t>(), obstacles_on_target);
   EXPECT_GT(obstacles_on_target, people / 2);
   std::filesystem::remove_all(dir);
