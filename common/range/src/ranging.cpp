@@ -143,40 +143,54 @@ std::string status_name(RangeStatus status) {
 
 namespace {
 
-// Eq. 34 on the kept indices: keep mean +- mean absolute deviation (max_passes = 1 is the
-// paper's single pass). A pass may leave fewer than 3 points (the target is then not ranged):
-// refusing such a pass kept a ground point in front of a 40 m person's 4 points and ranged it
-// 13.5 m short (thermovis bench ranging, visible and fused at 40 m).
-std::vector<int> eq34_passes(const std::vector<double>& values, std::vector<int> kept,
-                             int max_passes) {
+// Buffers of the Eq. 34 screen, reused: the bootstrap runs it 100 times per target and range.
+struct Eq34Scratch {
+  std::vector<double> sorted, deviations;
+  std::vector<int> kept, next;
+};
+
+// Eq. 34 on the kept indices (s.kept, in place): keep mean +- mean absolute deviation
+// (max_passes = 1 is the paper's single pass). A pass may leave fewer than 3 points (the target
+// is then not ranged): refusing such a pass kept a ground point in front of a 40 m person's 4
+// points and ranged it 13.5 m short (thermovis bench ranging, visible and fused at 40 m).
+void eq34_passes(const double* values, int max_passes, Eq34Scratch& s) {
+  std::vector<int>& kept = s.kept;
   for (int pass = 0; pass < max_passes && kept.size() > 2; ++pass) {
     double mean = 0;
-    for (int i : kept) mean += values[static_cast<size_t>(i)];
+    for (int i : kept) mean += values[i];
     mean /= static_cast<double>(kept.size());
     double mad = 0;
-    for (int i : kept) mad += std::abs(values[static_cast<size_t>(i)] - mean);
+    for (int i : kept) mad += std::abs(values[i] - mean);
     mad /= static_cast<double>(kept.size());
-    std::vector<int> next;
-    next.reserve(kept.size());
+    // Branch-free: which points stay is a coin toss for the branch predictor.
+    s.next.resize(kept.size());
+    size_t staying = 0;
     for (int i : kept) {
-      if (std::abs(values[static_cast<size_t>(i)] - mean) <= mad) next.push_back(i);
+      s.next[staying] = i;
+      staying += std::abs(values[i] - mean) <= mad ? 1 : 0;
     }
-    if (next.size() == kept.size() || next.empty()) break;
-    kept.swap(next);
+    s.next.resize(staying);
+    if (s.next.size() == kept.size() || s.next.empty()) break;
+    kept.swap(s.next);
   }
-  return kept;
 }
+
+size_t dense_need(size_t count) { return std::max<size_t>(3, (3 * count + 9) / 10); }
 
 // The nearest dense group (reject_outliers_eq34's `windows`): the nearest value with `need`
 // values within its window anchors it; its centre is the value of most neighbours within one
 // window beyond that anchor (the group's mode, not its near edge); empty when no value has
-// `need` neighbours.
+// `need` neighbours. `sorted`: the values in ascending order, where each value's neighbours
+// (|v - values[i]| <= windows[i], monotone in v) are one contiguous run found by bisection.
 std::vector<int> nearest_dense_group(const std::vector<double>& values,
-                                     const std::vector<double>& windows, size_t need) {
+                                     const std::vector<double>& windows,
+                                     const std::vector<double>& sorted, size_t need) {
   const auto neighbours = [&](size_t i) {
-    size_t n = 0;
-    for (double v : values) n += std::abs(v - values[i]) <= windows[i];
-    return n;
+    const double x = values[i], w = windows[i];
+    const auto lo =
+        std::partition_point(sorted.begin(), sorted.end(), [&](double v) { return v - x < -w; });
+    const auto hi = std::partition_point(lo, sorted.end(), [&](double v) { return v - x <= w; });
+    return static_cast<size_t>(hi - lo);
   };
   std::vector<int> kept;
   int anchor = -1;
@@ -202,24 +216,69 @@ std::vector<int> nearest_dense_group(const std::vector<double>& values,
   return kept;
 }
 
+// The gap-and-median screen, then Eq. 34, of values[0..count) whose ascending order is in
+// s.sorted: the kept indices into s.kept (reject_outliers_eq34 without windows).
+void screen_then_eq34(const double* values, size_t count, int max_passes, Eq34Scratch& s) {
+  const size_t need = dense_need(count);
+  const std::vector<double>& sorted = s.sorted;
+  std::vector<int>& kept = s.kept;
+  kept.clear();
+  for (size_t begin = 0; begin < sorted.size();) {
+    size_t end = begin + 1;
+    while (end < sorted.size() && sorted[end] <= 1.5 * sorted[end - 1]) ++end;
+    if (end - begin >= need && end - begin < sorted.size()) {  // the whole cluster, no more
+      const double lo = sorted[begin], hi = sorted[end - 1];
+      kept.resize(count);
+      size_t inside = 0;
+      for (size_t i = 0; i < count; ++i) {
+        kept[inside] = static_cast<int>(i);
+        inside += values[i] >= lo && values[i] <= hi ? 1 : 0;
+      }
+      kept.resize(inside);
+      break;
+    }
+    begin = end;
+  }
+  if (!kept.empty()) return eq34_passes(values, max_passes, s);
+  const size_t mid = sorted.size() / 2;
+  const double median = sorted[mid];
+  s.deviations.resize(sorted.size());
+  for (size_t i = 0; i < sorted.size(); ++i) s.deviations[i] = std::abs(sorted[i] - median);
+  const auto mid_deviation = s.deviations.begin() + static_cast<std::ptrdiff_t>(mid);
+  std::nth_element(s.deviations.begin(), mid_deviation, s.deviations.end());
+  const double spread = 5.0 * 1.4826 * *mid_deviation;
+  for (size_t i = 0; i < count; ++i) {
+    if (std::abs(values[i] - median) <= spread || spread == 0.0)
+      kept.push_back(static_cast<int>(i));
+  }
+  if (spread == 0.0) {  // half or more of the values are identical: keep those
+    kept.clear();
+    for (size_t i = 0; i < count; ++i)
+      if (values[i] == median) kept.push_back(static_cast<int>(i));
+  }
+  eq34_passes(values, max_passes, s);
+}
+
 }  // namespace
 
 std::vector<int> reject_outliers_eq34(const std::vector<double>& values, int max_passes,
                                       const std::vector<double>& windows) {
-  std::vector<int> kept;
-  if (values.empty()) return kept;
-  const size_t need = std::max<size_t>(3, (3 * values.size() + 9) / 10);
+  if (values.empty()) return {};
+  Eq34Scratch s;
+  s.sorted = values;
+  std::sort(s.sorted.begin(), s.sorted.end());
   // A target seen before a background that recedes (the ground and walls between and beside
   // the legs) gives distances spread without a gap, so no cluster split below separates them:
   // the target is the nearest group of values as close together as its own depth and noise.
   if (windows.size() == values.size()) {
-    kept = nearest_dense_group(values, windows, need);
-    if (!kept.empty()) {
+    s.kept = nearest_dense_group(values, windows, s.sorted, dense_need(values.size()));
+    if (!s.kept.empty()) {
       // The group is consistent by construction: Eq. 34 trims it, but a pass that would leave
       // fewer than 3 of its values (one mean absolute deviation of a handful is tight) is not
       // made.
-      std::vector<int> trimmed = eq34_passes(values, kept, max_passes);
-      return trimmed.size() >= 3 ? trimmed : kept;
+      std::vector<int> group = s.kept;
+      eq34_passes(values.data(), max_passes, s);
+      return s.kept.size() >= 3 ? s.kept : group;
     }
   }
   // Gross outliers first (far background, a point near infinity): a single far value moves the
@@ -230,36 +289,55 @@ std::vector<int> reject_outliers_eq34(const std::vector<double>& values, int max
   // is kept instead: a target occludes what lies behind it, so when a box holds as many
   // background points (between the legs, beside the head) as target points, the target is the
   // nearer group, not whichever the median of all falls in.
-  std::vector<double> sorted(values);
-  std::sort(sorted.begin(), sorted.end());
-  for (size_t begin = 0; begin < sorted.size();) {
-    size_t end = begin + 1;
-    while (end < sorted.size() && sorted[end] <= 1.5 * sorted[end - 1]) ++end;
-    if (end - begin >= need && end - begin < sorted.size()) {  // the whole cluster, no more
-      const double lo = sorted[begin], hi = sorted[end - 1];
-      for (size_t i = 0; i < values.size(); ++i)
-        if (values[i] >= lo && values[i] <= hi) kept.push_back(static_cast<int>(i));
-      break;
-    }
-    begin = end;
+  screen_then_eq34(values.data(), values.size(), max_passes, s);
+  return s.kept;
+}
+
+struct Eq34Resampler::Buffers : Eq34Scratch {};
+
+Eq34Resampler::Eq34Resampler(std::vector<double> values, int max_passes)
+    : values_(std::move(values)),
+      max_passes_(max_passes),
+      order_(values_.size()),
+      rank_(values_.size()),
+      counts_(values_.size(), 0),
+      sample_(values_.size()),
+      buffers_(std::make_unique<Buffers>()) {
+  std::iota(order_.begin(), order_.end(), 0);
+  std::stable_sort(order_.begin(), order_.end(), [&](int a, int b) {
+    return values_[static_cast<size_t>(a)] < values_[static_cast<size_t>(b)];
+  });
+  for (size_t r = 0; r < order_.size(); ++r)
+    rank_[static_cast<size_t>(order_[r])] = static_cast<int>(r);
+}
+
+Eq34Resampler::~Eq34Resampler() = default;
+
+double Eq34Resampler::estimate(const std::vector<size_t>& picks) {
+  const size_t n = picks.size();
+  if (n == 0) return std::numeric_limits<double>::quiet_NaN();
+  sample_.resize(n);
+  for (size_t i = 0; i < n; ++i) {
+    sample_[i] = values_.at(picks[i]);
+    ++counts_[static_cast<size_t>(rank_[picks[i]])];
   }
-  if (!kept.empty()) return eq34_passes(values, std::move(kept), max_passes);
-  const auto mid = sorted.begin() + static_cast<std::ptrdiff_t>(sorted.size() / 2);
-  std::nth_element(sorted.begin(), mid, sorted.end());
-  const double median = *mid;
-  for (double& v : sorted) v = std::abs(v - median);
-  std::nth_element(sorted.begin(), mid, sorted.end());
-  const double spread = 5.0 * 1.4826 * *mid;
-  for (size_t i = 0; i < values.size(); ++i) {
-    if (std::abs(values[i] - median) <= spread || spread == 0.0)
-      kept.push_back(static_cast<int>(i));
+  // The resample in ascending order, by counting its picks' ranks (a counting sort): each
+  // rank's first place in the order, then every pick to its rank's next place.
+  int place = 0;
+  for (int& c : counts_) {
+    const int of_rank = c;
+    c = place;
+    place += of_rank;
   }
-  if (spread == 0.0) {  // half or more of the values are identical: keep those
-    kept.clear();
-    for (size_t i = 0; i < values.size(); ++i)
-      if (values[i] == median) kept.push_back(static_cast<int>(i));
-  }
-  return eq34_passes(values, std::move(kept), max_passes);
+  Eq34Scratch& s = *buffers_;
+  s.sorted.resize(n);
+  for (size_t i = 0; i < n; ++i)
+    s.sorted[static_cast<size_t>(counts_[static_cast<size_t>(rank_[picks[i]])]++)] = sample_[i];
+  std::fill(counts_.begin(), counts_.end(), 0);
+  screen_then_eq34(sample_.data(), n, max_passes_, s);
+  double sum = 0;
+  for (int i : s.kept) sum += sample_[static_cast<size_t>(i)];
+  return sum / static_cast<double>(s.kept.size());
 }
 
 TargetShape TargetShape::for_class(const std::string& target_class) {
@@ -484,12 +562,13 @@ TargetRange range_target(const RangingGeometry& geometry, const cv::Rect& box,
   if (screened.size() >= 2 && options.bootstrap_samples > 1) {
     std::mt19937 rng(static_cast<unsigned>(screened.size()) * 2654435761u);
     std::uniform_int_distribution<size_t> pick(0, screened.size() - 1);
-    std::vector<double> sample(screened.size());
+    std::vector<size_t> picks(screened.size());
+    const size_t count = screened.size();
+    Eq34Resampler resampler(std::move(screened), options.max_rejection_passes);
     double sum = 0, sum2 = 0;
     for (int b = 0; b < options.bootstrap_samples; ++b) {
-      for (double& v : sample) v = screened[pick(rng)];
-      const double estimate =
-          mean_of(sample, reject_outliers_eq34(sample, options.max_rejection_passes));
+      for (size_t& p : picks) p = pick(rng);
+      const double estimate = resampler.estimate(picks);
       sum += estimate;
       sum2 += estimate * estimate;
     }
@@ -497,7 +576,7 @@ TargetRange range_target(const RangingGeometry& geometry, const cv::Rect& box,
     random_sigma = std::sqrt(std::max(0.0, (sum2 - sum * sum / B) / (B - 1)));
     // Small samples: the bootstrap spread is biased low by sqrt((n-1)/n), and a one-sigma
     // interval needs Student's t_{0.84}(n-1) ~ 1 + 0.57/(n-1) to hold 68 %.
-    const double nv = static_cast<double>(screened.size());
+    const double nv = static_cast<double>(count);
     random_sigma *= std::sqrt(nv / (nv - 1)) * (1.0 + 0.57 / (nv - 1));
   }
   const double systematic_sigma = distance_per_px * options.systematic_disparity_px;

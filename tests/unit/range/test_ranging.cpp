@@ -175,6 +175,43 @@ TEST(Eq34, AGroupOfAFewIsNotTrimmedBelowThree) {
   for (int i : kept) EXPECT_LT(v[static_cast<size_t>(i)], 5.1);
 }
 
+// The bootstrap's resampler gives what Eq. 34 gives on each resample, to the bit: sets with a
+// near cluster and a far one, gross outliers, ties (the median path with no spread) and single
+// values, resampled with replacement.
+TEST(Eq34, TheResamplerEqualsEq34OnEachResample) {
+  std::mt19937 rng(11);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  for (int set = 0; set < 60; ++set) {
+    const size_t n = 2 + static_cast<size_t>(set % 20) * 7;
+    std::vector<double> values;
+    for (size_t i = 0; i < n; ++i) {
+      const int kind = static_cast<int>(i % 5);
+      double v = 20.0 + 0.2 * noise(rng);
+      if (set % 3 == 1 && kind == 4) v = 45.0 + noise(rng);  // a farther cluster
+      if (set % 3 == 2 && kind >= 3) v = 7.5;                // ties
+      if (i == 1 && set % 4 == 0) v = 3000.0;                // far outlier
+      values.push_back(v);
+    }
+    for (int passes : {0, 1, 3}) {
+      rg::Eq34Resampler resampler(values, passes);
+      std::uniform_int_distribution<size_t> pick(0, n - 1);
+      std::vector<size_t> picks(n);
+      std::vector<double> sample(n);
+      for (int b = 0; b < 20; ++b) {
+        for (size_t i = 0; i < n; ++i) sample[i] = values[picks[i] = pick(rng)];
+        const std::vector<int> kept = rg::reject_outliers_eq34(sample, passes);
+        double sum = 0;
+        for (int i : kept) sum += sample[static_cast<size_t>(i)];
+        ASSERT_EQ(resampler.estimate(picks), sum / static_cast<double>(kept.size()))
+            << "set " << set << ", " << passes << " passes, resample " << b;
+      }
+    }
+  }
+  rg::Eq34Resampler resampler({1.0, 2.0}, 1);
+  EXPECT_TRUE(std::isnan(resampler.estimate({})));
+  EXPECT_THROW(resampler.estimate({0, 2}), std::out_of_range);
+}
+
 namespace {
 
 struct Trial {
