@@ -22,6 +22,11 @@ int main(int argc, char** argv) {
                  "height of the rig above the ground (person size check)")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  app.add_option("--reduced-px-per-rad", config.detect.reduced_px_per_rad,
+                 "detect on the infrared grid reduced by an integer factor to about this "
+                 "resolution (0: the grid's own)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   std::string infrared_detector = "warm-blob";
   std::string model;
   app.add_option("--ir-detector", infrared_detector,

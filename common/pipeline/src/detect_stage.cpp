@@ -1,11 +1,42 @@
 #include "thermovis/pipeline/detect_stage.hpp"
 
+#include <algorithm>
+#include <cmath>
+#include <opencv2/imgproc.hpp>
 #include <stdexcept>
+#include <string>
 
 namespace thermovis::pipeline {
 
+namespace {
+
+int reduction_for(const camera::RectifiedIntrinsics& grid, double px_per_rad) {
+  if (px_per_rad < 0 || !std::isfinite(px_per_rad)) {
+    throw std::invalid_argument("detect: reduced_px_per_rad must be >= 0");
+  }
+  if (px_per_rad == 0) return 1;
+  return std::max(1, static_cast<int>(std::lround(grid.f / px_per_rad)));
+}
+
+// The grid reduced by k: its first k * (size / k) columns and rows box-filtered, k x k pixels to
+// one, so pixel centres move as in camera::scaled but the size is the whole blocks'.
+camera::RectifiedIntrinsics reduced(const camera::RectifiedIntrinsics& grid, int k) {
+  camera::RectifiedIntrinsics out = grid;
+  out.width = grid.width / k;
+  out.height = grid.height / k;
+  out.f = grid.f / k;
+  out.cx = (grid.cx + 0.5) / k - 0.5;
+  out.cy = (grid.cy + 0.5) / k - 0.5;
+  return out;
+}
+
+}  // namespace
+
 DetectStage::DetectStage(const PipelineGeometry& geometry, const DetectOptions& options)
-    : grid_(geometry.grid), options_(options) {
+    : grid_(geometry.grid),
+      options_(options),
+      reduction_(reduction_for(geometry.grid, options.reduced_px_per_rad)),
+      reduced_grid_(reduced(geometry.grid, reduction_)) {
   if (!options_.infrared_model.empty()) {
     detect::PersonDetectorOptions o;
     o.band = detect::Band::infrared;
@@ -22,9 +53,27 @@ std::vector<detect::Detection> DetectStage::detect(const cv::Mat& infrared,
   if (infrared.type() != CV_8UC1 && infrared.type() != CV_16UC1) {
     throw std::invalid_argument("detect: infrared image: expected MONO8 or MONO16 pixels");
   }
+  if (infrared.size() != grid_.image_size()) {
+    throw std::invalid_argument("detect: infrared image is " + std::to_string(infrared.cols) + "x" +
+                                std::to_string(infrared.rows) + ", the grid " +
+                                std::to_string(grid_.image_size().width) + "x" +
+                                std::to_string(grid_.image_size().height));
+  }
+  const int k = reduction_;
+  cv::Mat image = infrared;
+  if (k > 1) {
+    const cv::Size size = reduced_grid_.image_size();
+    cv::resize(infrared(cv::Rect(0, 0, size.width * k, size.height * k)), image, size, 0, 0,
+               cv::INTER_AREA);
+  }
+  const camera::RectifiedCamera& grid = k > 1 ? reduced_grid_ : grid_;
   std::vector<detect::Detection> found =
-      classifier_ ? classifier_->detect(infrared, cv::Mat(), &grid_)
-                  : detect::detect_warm_blobs(infrared, grid_, options_.blobs);
+      classifier_ ? classifier_->detect(image, cv::Mat(), &grid)
+                  : detect::detect_warm_blobs(image, grid, options_.blobs);
+  if (k > 1) {
+    for (detect::Detection& d : found)
+      d.box = cv::Rect(d.box.x * k, d.box.y * k, d.box.width * k, d.box.height * k);
+  }
   if (options_.hog && !fused.empty()) {
     auto people = detect::detect_people_hog(fused, options_.hog_options);
     found.insert(found.end(), people.begin(), people.end());

@@ -176,6 +176,49 @@ TEST(MatchStage, AlignsEachBoxsWholeRegionOnEveryPair) {
   EXPECT_THROW(pl::parse_range_estimate("corners"), std::invalid_argument);
 }
 
+// On the full grid (twice the pipeline grid's px per rad) the detector runs on the grid reduced
+// by 2 and its boxes come back in the grid's pixels: a warm person standing 20 m ahead is found
+// there, once, with a box around it. reduced_px_per_rad 0 detects on the grid itself, and a
+// wrong-sized image is refused.
+TEST(DetectStage, DetectsOnTheFullGridReducedToThePipelines) {
+  pl::GridOptions full;
+  full.scale = 1.0;
+  const auto geometry_full =
+      pl::make_geometry(thermovis::runtime::load_rig(thermovis::runtime::default_rig_path()), full);
+  EXPECT_EQ(pl::DetectStage(geometry()).reduction(), 1);
+  const pl::DetectStage reduced(geometry_full);
+  ASSERT_EQ(reduced.reduction(), 2);
+  pl::DetectOptions own;
+  own.reduced_px_per_rad = 0;
+  const pl::DetectStage unreduced(geometry_full, own);
+  EXPECT_EQ(unreduced.reduction(), 1);
+  const auto& g = geometry_full.grid;
+  cv::Mat counts(geometry_full.grid_size(), CV_16UC1);
+  cv::randn(counts, 8000, 30);
+  const int top = static_cast<int>(g.cy + g.f * std::atan((1.4 - 1.75) / 20.0));
+  const int foot = static_cast<int>(g.cy + g.f * std::atan(1.4 / 20.0));
+  const cv::Rect person(static_cast<int>(g.cx) + 101, top, static_cast<int>(g.f * 0.5 / 20.0),
+                        foot - top);
+  counts(person).setTo(9500);
+  for (const pl::DetectStage* stage : {&reduced, &unreduced}) {
+    const auto found = stage->detect(counts);
+    std::vector<cv::Rect> on_person;  // (i.i.d. noise makes small warm specks elsewhere)
+    for (const auto& d : found)
+      if ((d.box & person).area() > person.area() / 2) on_person.push_back(d.box);
+    ASSERT_EQ(on_person.size(), 1u) << "reduction " << stage->reduction();
+    // The blob's 3 x 5 px closing pads its box by a few pixels of the image it ran on (twice
+    // as many grid pixels when reduced): the box holds the person and not twice its area.
+    const cv::Rect box = on_person[0];
+    EXPECT_EQ(box & person, person) << box;
+    EXPECT_LE(box.area(), 2 * person.area()) << box;
+  }
+  EXPECT_THROW(reduced.detect(cv::Mat(geometry().grid_size(), CV_16UC1, cv::Scalar(8000))),
+               std::invalid_argument);
+  pl::DetectOptions bad;
+  bad.reduced_px_per_rad = -1;
+  EXPECT_THROW(pl::DetectStage(geometry_full, bad), std::invalid_argument);
+}
+
 TEST(DetectStage, FindsAWarmPersonAndRefusesColour) {
   const pl::DetectStage detector(geometry());
   const cv::Size grid = geometry().grid_size();
