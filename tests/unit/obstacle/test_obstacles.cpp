@@ -6,8 +6,11 @@
 #include <cmath>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
+#include <random>
+#include <thread>
 
 #include "thermovis/obstacle/obstacles.hpp"
+#include "thermovis/obstacle/robust.hpp"
 #include "thermovis/pipeline/capture_pipeline.hpp"
 #include "thermovis/runtime/rig_io.hpp"
 #include "thermovis/runtime/scene_io.hpp"
@@ -453,4 +456,95 @@ TEST(DenseDisparity, BadPixelsAgainstATruth) {
   EXPECT_DOUBLE_EQ(a.bad1_valid, 2.0 / 3.0);
   EXPECT_DOUBLE_EQ(a.bad2_valid, 1.0 / 3.0);
   EXPECT_THROW(ob::evaluate_dense(d, truth(cv::Rect(0, 0, 4, 1))), std::invalid_argument);
+}
+
+// The stixels' one-sort median and deviation give exactly the two selections' values (the
+// detector's results do not move), on disparities in the matchers' 1/16 px steps with ties, and
+// on arbitrary ones.
+TEST(RobustStatistics, TheMedianAndDeviationAreTheTwoMediansValues) {
+  std::mt19937 random(7);
+  for (int trial = 0; trial < 2000; ++trial) {
+    const int n = 1 + trial % 61;
+    const bool steps = trial % 2 == 0;
+    std::uniform_real_distribution<double> value(10.0, 10.0 + (trial % 7 + 1) * 0.5);
+    std::vector<double> v(static_cast<std::size_t>(n));
+    for (double& x : v) x = steps ? std::round(value(random) * 16) / 16 : value(random);
+    std::vector<double> a = v, b = v;
+    const double median = ob::median_of(a);
+    std::vector<double> deviations;
+    for (double x : a) deviations.push_back(std::abs(x - median));
+    const double deviation = ob::median_of(deviations);
+    const auto [m, d] = ob::median_and_deviation(b);
+    ASSERT_EQ(m, median) << "n " << n;
+    ASSERT_EQ(d, deviation) << "n " << n;
+  }
+  std::vector<double> none;
+  EXPECT_TRUE(std::isnan(ob::median_and_deviation(none).first));
+}
+
+namespace {
+
+void expect_same(const ob::ObstacleResult& a, const ob::ObstacleResult& b, int frame) {
+  ASSERT_EQ(a.pairs.size(), b.pairs.size());
+  for (std::size_t i = 0; i < a.pairs.size(); ++i) {
+    const ob::PairObstacles &p = a.pairs[i], &q = b.pairs[i];
+    EXPECT_EQ(p.ground.status, q.ground.status) << "frame " << frame;
+    EXPECT_EQ(p.ground.inlier_pixels, q.ground.inlier_pixels) << "frame " << frame;
+    EXPECT_EQ(p.ground.plane.normal, q.ground.plane.normal) << "frame " << frame;
+    ASSERT_EQ(p.stixels.size(), q.stixels.size()) << "frame " << frame;
+    for (std::size_t k = 0; k < p.stixels.size(); ++k) {
+      EXPECT_EQ(p.stixels[k].column, q.stixels[k].column);
+      EXPECT_EQ(p.stixels[k].top_row, q.stixels[k].top_row);
+      EXPECT_EQ(p.stixels[k].distance_m, q.stixels[k].distance_m);
+      EXPECT_EQ(p.stixels[k].sigma_m, q.stixels[k].sigma_m);
+    }
+  }
+  ASSERT_EQ(a.obstacles.size(), b.obstacles.size()) << "frame " << frame;
+  for (std::size_t k = 0; k < a.obstacles.size(); ++k) {
+    EXPECT_EQ(a.obstacles[k].box, b.obstacles[k].box) << "frame " << frame;
+    EXPECT_EQ(a.obstacles[k].distance_m, b.obstacles[k].distance_m) << "frame " << frame;
+  }
+  ASSERT_EQ(a.free_space_m.size(), b.free_space_m.size());
+  for (std::size_t x = 0; x < a.free_space_m.size(); ++x) {
+    const float u = a.free_space_m[x], v = b.free_space_m[x];
+    EXPECT_TRUE(u == v || (std::isnan(u) && std::isnan(v))) << "frame " << frame << " x " << x;
+  }
+}
+
+}  // namespace
+
+// The detector keeps its buffers from capture to capture (per thread): captures after others,
+// one of them again, give what a thread that has seen none gives (no state leaks into the next
+// capture), with both pairs and the share of the ground between them.
+TEST(ObstacleDetectorOnSimulatedStreet, BuffersKeptFromTheLastCaptureChangeNothing) {
+  namespace pl = thermovis::pipeline;
+  namespace sim = thermovis::sim;
+  const auto rig = thermovis::runtime::load_rig(thermovis::runtime::default_rig_path());
+  const sim::Scene scene =
+      thermovis::runtime::load_scene(thermovis::runtime::shipped_scene_path("street"));
+  const sim::SimulatedRig simulated(rig, scene, 1);
+  pl::CapturePipeline pipeline(rig);
+  const pl::PipelineGeometry& g = pipeline.geometry();
+  ob::ObstacleOptions options;
+  options.share_ground = true;
+  const ob::ObstacleDetector d(g.grid,
+                               {{ob::PairBand::visible, g.ranging(pl::Band::visible)},
+                                {ob::PairBand::infrared, g.ranging(pl::Band::infrared)}},
+                               g.T_ref_reporting, ob::GroundPrior{scene.camera_height_m, 0.0, 0.0},
+                               options);
+  sim::FrameSet frames = simulated.allocate();
+  for (const std::int64_t frame : {0, 30, 0}) {
+    simulated.render(frame, frames);
+    const pl::GridCapture c =
+        pipeline.rectify({frames[sim::Slot::visible_left], frames[sim::Slot::visible_right],
+                          frames[sim::Slot::infrared_left], frames[sim::Slot::infrared_right]});
+    const ob::ObstacleResult kept =
+        d.detect(c.grey_left, c.grey_right, c.infrared_left, c.infrared_right);
+    ob::ObstacleResult fresh;
+    std::thread([&] {
+      fresh = d.detect(c.grey_left, c.grey_right, c.infrared_left, c.infrared_right);
+    }).join();
+    ASSERT_FALSE(kept.obstacles.empty());
+    expect_same(kept, fresh, static_cast<int>(frame));
+  }
 }
