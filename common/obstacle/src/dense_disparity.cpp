@@ -40,11 +40,31 @@ double image_noise_sigma(const cv::Mat& grey) {
   // Immerkaer (1996): the difference of two Laplacians cancels intensity that is planar over
   // 3 x 3 px; on white noise of sigma s its response has the standard deviation 6 s, so its
   // mean absolute value is sqrt(2 / pi) 6 s. Texture adds to it (an upper bound).
-  const cv::Mat kernel = (cv::Mat_<float>(3, 3) << 1, -2, 1, -2, 4, -2, 1, -2, 1);
-  cv::Mat response;
-  cv::filter2D(grey, response, CV_32F, kernel);
-  const cv::Rect inner(1, 1, grey.cols - 2, grey.rows - 2);
-  const double mean_abs = cv::mean(cv::abs(response(inner)))[0];
+  // The kernel (1 -2 1; -2 4 -2; 1 -2 1) is the outer product of (1 -2 1) with itself: per
+  // inner pixel the row filter's values of the rows above, at and below, in integers (exact,
+  // as the float filter's sums of small integers are), summed in one pass without images.
+  const int cols = grey.cols;
+  std::vector<int> above(static_cast<std::size_t>(cols)), at(above.size()), below(above.size());
+  auto row_filter = [cols](const std::uint8_t* src, std::vector<int>& out) {
+    for (int c = 1; c + 1 < cols; ++c) {
+      out[static_cast<std::size_t>(c)] = src[c - 1] - 2 * src[c] + src[c + 1];
+    }
+  };
+  row_filter(grey.ptr<std::uint8_t>(0), above);
+  row_filter(grey.ptr<std::uint8_t>(1), at);
+  long long sum = 0;
+  for (int r = 1; r + 1 < grey.rows; ++r) {
+    row_filter(grey.ptr<std::uint8_t>(r + 1), below);
+    for (int c = 1; c + 1 < cols; ++c) {
+      const auto i = static_cast<std::size_t>(c);
+      sum += std::abs(above[i] - 2 * at[i] + below[i]);
+    }
+    std::swap(above, at);
+    std::swap(at, below);
+  }
+  const long long count = static_cast<long long>(grey.rows - 2) * (cols - 2);
+  // cv::mean's scaling of its (here exact) sum: the same value as the filter2D version.
+  const double mean_abs = static_cast<double>(sum) * (1. / static_cast<double>(count));
   return mean_abs / (6.0 * std::sqrt(2.0 / M_PI));
 }
 
@@ -94,7 +114,12 @@ cv::Mat dense_disparity(const cv::Mat& left, const cv::Mat& right, double max_di
   const int range = 16 * static_cast<int>(std::ceil(max_disparity_px / 16.0));
   cv::Mat fixed;  // CV_16S, 1/16 px
   if (options.method == DenseMethod::block_matching) {
-    auto bm = cv::StereoBM::create(range, options.block_size);
+    // One matcher per thread, kept: it keeps its work buffers (sized to the image and the
+    // range) from call to call instead of allocating them for every capture. Every setting is
+    // made again below, so nothing of the last call's options stays.
+    thread_local const cv::Ptr<cv::StereoBM> bm = cv::StereoBM::create(range, options.block_size);
+    bm->setNumDisparities(range);
+    bm->setBlockSize(options.block_size);
     bm->setUniquenessRatio(options.uniqueness_ratio);
     bm->setTextureThreshold(block_texture_threshold(left, options));
     bm->setSpeckleWindowSize(options.speckle_window);

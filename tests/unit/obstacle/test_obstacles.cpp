@@ -548,3 +548,28 @@ TEST(ObstacleDetectorOnSimulatedStreet, BuffersKeptFromTheLastCaptureChangeNothi
     expect_same(kept, fresh, static_cast<int>(frame));
   }
 }
+
+// The noise estimate in one integer pass is the filter's (filter2D over the image, the mean of
+// its magnitude inside the border) to the bit, on noise, a ramp and a simulated-like texture.
+TEST(DenseDisparity, TheNoiseEstimateIsTheFiltersValue) {
+  std::mt19937 random(3);
+  for (const cv::Size size : {cv::Size(3, 3), cv::Size(17, 5), cv::Size(468, 138)}) {
+    for (int kind = 0; kind < 3; ++kind) {
+      cv::Mat grey(size, CV_8U);
+      std::uniform_int_distribution<int> level(0, 255), small(-4, 4);
+      for (int r = 0; r < grey.rows; ++r) {
+        for (int c = 0; c < grey.cols; ++c) {
+          const int v = kind == 0 ? level(random) : kind == 1 ? c + 2 * r + small(random) : 128;
+          grey.at<std::uint8_t>(r, c) = cv::saturate_cast<std::uint8_t>(v);
+        }
+      }
+      const cv::Mat kernel = (cv::Mat_<float>(3, 3) << 1, -2, 1, -2, 4, -2, 1, -2, 1);
+      cv::Mat response;
+      cv::filter2D(grey, response, CV_32F, kernel);
+      const cv::Rect inner(1, 1, grey.cols - 2, grey.rows - 2);
+      const double reference =
+          cv::mean(cv::abs(response(inner)))[0] / (6.0 * std::sqrt(2.0 / M_PI));
+      EXPECT_EQ(ob::image_noise_sigma(grey), reference) << size << " kind " << kind;
+    }
+  }
+}
