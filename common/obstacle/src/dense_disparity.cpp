@@ -24,6 +24,53 @@ void check_grey(const cv::Mat& image, const char* eye) {
   }
 }
 
+// The local detail of infrared counts: each pixel less its 9 x 9 mean (the image's border
+// reflected, 101), as float, the same to the bit as converting to float, cv::blur and
+// subtracting: the float box filter sums in double, and sums of counts are integers that double
+// holds exactly in any order, so the integer window sums times 1/81 are its means. One pass per
+// row (column sums slid down the rows, then the window slid along them), no float images.
+void local_detail(const cv::Mat& counts, cv::Mat& detail) {
+  constexpr int kRadius = 4, kWindow = 2 * kRadius + 1;
+  const int rows = counts.rows, cols = counts.cols;
+  detail.create(counts.size(), CV_32F);
+  // Reflected indices of the rows and columns a window reaches past the image.
+  auto source_index = [](int i, int n) {
+    return cv::borderInterpolate(i, n, cv::BORDER_REFLECT_101);
+  };
+  std::vector<int> column_sums(static_cast<std::size_t>(cols), 0);
+  std::vector<int> column_of(static_cast<std::size_t>(cols + 2 * kRadius));
+  std::vector<int> prefix(column_of.size() + 1, 0);
+  for (int i = 0; i < static_cast<int>(column_of.size()); ++i) {
+    column_of[static_cast<std::size_t>(i)] = source_index(i - kRadius, cols);
+  }
+  for (int dr = -kRadius; dr <= kRadius; ++dr) {
+    const auto* src = counts.ptr<std::uint16_t>(source_index(dr, rows));
+    for (int c = 0; c < cols; ++c) column_sums[static_cast<std::size_t>(c)] += src[c];
+  }
+  const double scale = 1.0 / (kWindow * kWindow);
+  for (int r = 0; r < rows; ++r) {
+    if (r > 0) {
+      const auto* in = counts.ptr<std::uint16_t>(source_index(r + kRadius, rows));
+      const auto* out = counts.ptr<std::uint16_t>(source_index(r - 1 - kRadius, rows));
+      for (int c = 0; c < cols; ++c) column_sums[static_cast<std::size_t>(c)] += in[c] - out[c];
+    }
+    // Running sums along the reflected row, so each window's sum is a difference of two and
+    // the loop below has no chain from pixel to pixel (it vectorises).
+    int running = 0;
+    for (std::size_t i = 0; i < column_of.size(); ++i) {
+      prefix[i + 1] = running += column_sums[static_cast<std::size_t>(column_of[i])];
+    }
+    const auto* src = counts.ptr<std::uint16_t>(r);
+    auto* d = detail.ptr<float>(r);
+    const int* window_end = prefix.data() + kWindow;
+    const int* window_start = prefix.data();
+    for (int c = 0; c < cols; ++c) {
+      const int sum = window_end[c] - window_start[c];
+      d[c] = static_cast<float>(src[c]) - static_cast<float>(sum * scale);
+    }
+  }
+}
+
 }  // namespace
 
 std::string method_name(DenseMethod method) { return util::name_of(kMethodNames, method, "?"); }
@@ -162,13 +209,9 @@ void grey_pair(const cv::Mat& left, const cv::Mat& right, cv::Mat& left8, cv::Ma
       // so a linear stretch leaves the texture a few grey levels. The local detail (the image
       // less its 9 x 9 mean) is kept instead, at one gain for both eyes: 3 robust sigmas of the
       // left eye's detail over 64 grey levels. Pixels outside the cameras' field (0) stay flat.
-      cv::Mat lf, rf, lb, rb;
-      left.convertTo(lf, CV_32F);
-      right.convertTo(rf, CV_32F);
-      cv::blur(lf, lb, cv::Size(9, 9));
-      cv::blur(rf, rb, cv::Size(9, 9));
-      lf -= lb;
-      rf -= rb;
+      cv::Mat lf, rf;
+      local_detail(left, lf);
+      local_detail(right, rf);
       std::vector<float> detail;
       detail.reserve(left.total() / 4 + 1);
       for (int r = 0; r < left.rows; r += 2) {

@@ -573,3 +573,74 @@ TEST(DenseDisparity, TheNoiseEstimateIsTheFiltersValue) {
     }
   }
 }
+
+namespace {
+
+// Infrared counts to grey (grey_pair) as it was written with OpenCV calls: float images, a 9 x 9
+// cv::blur, the detail's robust spread from every other pixel, the stretch, the flat border.
+// The one-pass detail must give the same grey images to the bit.
+void reference_grey_counts(const cv::Mat& left, const cv::Mat& right, cv::Mat& left8,
+                           cv::Mat& right8) {
+  cv::Mat lf, rf, lb, rb;
+  left.convertTo(lf, CV_32F);
+  right.convertTo(rf, CV_32F);
+  cv::blur(lf, lb, cv::Size(9, 9));
+  cv::blur(rf, rb, cv::Size(9, 9));
+  lf -= lb;
+  rf -= rb;
+  std::vector<float> detail;
+  for (int r = 0; r < left.rows; r += 2) {
+    for (int c = 0; c < left.cols; c += 2) {
+      if (left.at<std::uint16_t>(r, c) != 0) detail.push_back(std::abs(lf.at<float>(r, c)));
+    }
+  }
+  float spread = 1.0f;
+  if (!detail.empty()) {
+    const auto mid = detail.begin() + static_cast<std::ptrdiff_t>(detail.size() / 2);
+    std::nth_element(detail.begin(), mid, detail.end());
+    spread = std::max(1.4826f * *mid, 1e-3f);
+  }
+  const double gain = 64.0 / (3.0 * spread);
+  lf.convertTo(left8, CV_8U, gain, 128.0);
+  rf.convertTo(right8, CV_8U, gain, 128.0);
+  left8.setTo(128, left == 0);
+  right8.setTo(128, right == 0);
+}
+
+}  // namespace
+
+TEST(DenseDisparity, InfraredCountsToGreyAreTheReferencesToTheBit) {
+  std::mt19937 random(11);
+  std::vector<std::pair<cv::Mat, cv::Mat>> pairs;
+  for (const cv::Size size : {cv::Size(16, 16), cv::Size(23, 9), cv::Size(468, 134)}) {
+    cv::Mat l(size, CV_16U), r(size, CV_16U);
+    std::uniform_int_distribution<int> counts(7000, 7400), wide(0, 65535);
+    for (int y = 0; y < size.height; ++y) {
+      for (int x = 0; x < size.width; ++x) {
+        l.at<std::uint16_t>(y, x) = static_cast<std::uint16_t>(x < 3 ? 0 : counts(random));
+        r.at<std::uint16_t>(y, x) = static_cast<std::uint16_t>(y % 5 == 0 ? wide(random) : 7200);
+      }
+    }
+    pairs.emplace_back(l, r);
+  }
+  namespace pl = thermovis::pipeline;
+  namespace sim = thermovis::sim;
+  const auto rig = thermovis::runtime::load_rig(thermovis::runtime::default_rig_path());
+  const sim::SimulatedRig simulated(
+      rig, thermovis::runtime::load_scene(thermovis::runtime::shipped_scene_path("street")), 1);
+  pl::CapturePipeline pipeline(rig);
+  sim::FrameSet frames = simulated.allocate();
+  simulated.render(0, frames);
+  const pl::GridCapture c =
+      pipeline.rectify({frames[sim::Slot::visible_left], frames[sim::Slot::visible_right],
+                        frames[sim::Slot::infrared_left], frames[sim::Slot::infrared_right]});
+  ASSERT_EQ(c.infrared_left.type(), CV_16UC1);
+  pairs.emplace_back(c.infrared_left, c.infrared_right);
+  for (const auto& [l, r] : pairs) {
+    cv::Mat l8, r8, want_l8, want_r8;
+    ob::grey_pair(l, r, l8, r8);
+    reference_grey_counts(l, r, want_l8, want_r8);
+    EXPECT_EQ(cv::norm(l8, want_l8, cv::NORM_INF), 0) << l.size();
+    EXPECT_EQ(cv::norm(r8, want_r8, cv::NORM_INF), 0) << l.size();
+  }
+}
