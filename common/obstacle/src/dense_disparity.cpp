@@ -132,16 +132,53 @@ double textured_share(const cv::Mat& left, const DenseOptions& options) {
   const int b = options.block_size;
   if (left.rows < b || left.cols < b) return 0.0;
   // StereoBM's texture of a block: the sum over it of its pre-filter's magnitude, the x Sobel
-  // clipped at the cap (31).
-  cv::Mat sobel, magnitude, texture;
-  cv::Sobel(left, sobel, CV_16S, 1, 0, 3);
-  cv::min(cv::abs(sobel), 31, magnitude);
-  magnitude.convertTo(magnitude, CV_32S);
-  cv::boxFilter(magnitude, texture, CV_32S, cv::Size(b, b), cv::Point(-1, -1), false,
-                cv::BORDER_REPLICATE);
+  // clipped at the cap (31). In integers, as cv::Sobel, abs, min and a box filter give it
+  // exactly: the magnitude per pixel (the image's border reflected, 101, as Sobel does), then
+  // the sums of the blocks inside the image (column sums slid down the rows, running sums
+  // along them), counted where they reach the threshold.
+  const int rows = left.rows, cols = left.cols, half = b / 2;
+  std::vector<std::uint8_t> magnitude(static_cast<std::size_t>(rows) * cols);
+  for (int r = 0; r < rows; ++r) {
+    const auto* up =
+        left.ptr<std::uint8_t>(cv::borderInterpolate(r - 1, rows, cv::BORDER_REFLECT_101));
+    const auto* at = left.ptr<std::uint8_t>(r);
+    const auto* down =
+        left.ptr<std::uint8_t>(cv::borderInterpolate(r + 1, rows, cv::BORDER_REFLECT_101));
+    std::uint8_t* m = magnitude.data() + static_cast<std::size_t>(r) * cols;
+    auto sobel = [&](int c, int before, int after) {
+      const int x =
+          (up[after] - up[before]) + 2 * (at[after] - at[before]) + (down[after] - down[before]);
+      m[c] = static_cast<std::uint8_t>(std::min(std::abs(x), 31));
+    };
+    sobel(0, 1, 1);
+    for (int c = 1; c + 1 < cols; ++c) sobel(c, c - 1, c + 1);
+    sobel(cols - 1, cols - 2, cols - 2);
+  }
   const int threshold = block_texture_threshold(left, options);
-  const cv::Rect inner(b / 2, b / 2, left.cols - b + 1, left.rows - b + 1);
-  return static_cast<double>(cv::countNonZero(texture(inner) >= threshold)) / inner.area();
+  std::vector<int> column_sums(static_cast<std::size_t>(cols), 0),
+      prefix(column_sums.size() + 1, 0);
+  auto add_row = [&](int r, int sign) {
+    const std::uint8_t* m = magnitude.data() + static_cast<std::size_t>(r) * cols;
+    for (int c = 0; c < cols; ++c) column_sums[static_cast<std::size_t>(c)] += sign * m[c];
+  };
+  for (int r = 0; r < b; ++r) add_row(r, 1);
+  long long textured = 0;
+  for (int y = half; y + half < rows; ++y) {
+    if (y > half) {
+      add_row(y + half, 1);
+      add_row(y - half - 1, -1);
+    }
+    int running = 0;
+    for (int c = 0; c < cols; ++c)
+      prefix[static_cast<std::size_t>(c) + 1] = running += column_sums[static_cast<std::size_t>(c)];
+    for (int x = half; x + half < cols; ++x) {
+      textured += prefix[static_cast<std::size_t>(x + half + 1)] -
+                      prefix[static_cast<std::size_t>(x - half)] >=
+                  threshold;
+    }
+  }
+  const double inner = static_cast<double>(rows - b + 1) * (cols - b + 1);
+  return static_cast<double>(textured) / inner;
 }
 
 cv::Mat dense_disparity(const cv::Mat& left, const cv::Mat& right, double max_disparity_px,

@@ -644,3 +644,65 @@ TEST(DenseDisparity, InfraredCountsToGreyAreTheReferencesToTheBit) {
     EXPECT_EQ(cv::norm(r8, want_r8, cv::NORM_INF), 0) << l.size();
   }
 }
+
+namespace {
+
+// textured_share as it was written with OpenCV calls (Sobel, abs, min, a box filter, a count).
+double reference_textured_share(const cv::Mat& left, const ob::DenseOptions& options) {
+  const int b = options.block_size;
+  cv::Mat sobel, magnitude, texture;
+  cv::Sobel(left, sobel, CV_16S, 1, 0, 3);
+  cv::min(cv::abs(sobel), 31, magnitude);
+  magnitude.convertTo(magnitude, CV_32S);
+  cv::boxFilter(magnitude, texture, CV_32S, cv::Size(b, b), cv::Point(-1, -1), false,
+                cv::BORDER_REPLICATE);
+  const int threshold = ob::block_texture_threshold(left, options);
+  const cv::Rect inner(b / 2, b / 2, left.cols - b + 1, left.rows - b + 1);
+  return static_cast<double>(cv::countNonZero(texture(inner) >= threshold)) / inner.area();
+}
+
+}  // namespace
+
+// The textured share in one integer pass is the OpenCV calls' to the bit: random and smooth
+// images, block sizes, fixed and noise-relative thresholds, the simulated visible image.
+TEST(DenseDisparity, TheTexturedShareIsTheReferencesToTheBit) {
+  std::mt19937 random(5);
+  std::vector<cv::Mat> images;
+  for (const cv::Size size : {cv::Size(5, 5), cv::Size(31, 12), cv::Size(468, 138)}) {
+    for (int kind = 0; kind < 2; ++kind) {
+      cv::Mat grey(size, CV_8U);
+      std::uniform_int_distribution<int> level(0, 255), small(-3, 3);
+      for (int r = 0; r < grey.rows; ++r) {
+        for (int c = 0; c < grey.cols; ++c) {
+          const int v = kind == 0 ? level(random) : 100 + c / 3 + small(random);
+          grey.at<std::uint8_t>(r, c) = cv::saturate_cast<std::uint8_t>(v);
+        }
+      }
+      images.push_back(grey);
+    }
+  }
+  namespace pl = thermovis::pipeline;
+  namespace sim = thermovis::sim;
+  const auto rig = thermovis::runtime::load_rig(thermovis::runtime::default_rig_path());
+  const sim::SimulatedRig simulated(
+      rig, thermovis::runtime::load_scene(thermovis::runtime::shipped_scene_path("street")), 1);
+  pl::CapturePipeline pipeline(rig);
+  sim::FrameSet frames = simulated.allocate();
+  simulated.render(0, frames);
+  const pl::GridCapture c =
+      pipeline.rectify({frames[sim::Slot::visible_left], frames[sim::Slot::visible_right],
+                        frames[sim::Slot::infrared_left], frames[sim::Slot::infrared_right]});
+  images.push_back(c.grey_left);
+  for (const cv::Mat& image : images) {
+    for (const int block : {5, 7, 9}) {
+      for (const double factor : {0.0, 1.5, 2.5}) {
+        ob::DenseOptions options;
+        options.block_size = block;
+        options.texture_noise_factor = factor;
+        if (image.rows < block || image.cols < block) continue;
+        EXPECT_EQ(ob::textured_share(image, options), reference_textured_share(image, options))
+            << image.size() << " block " << block << " factor " << factor;
+      }
+    }
+  }
+}
