@@ -24,6 +24,53 @@ void check_grey(const cv::Mat& image, const char* eye) {
   }
 }
 
+// The local detail of infrared counts: each pixel less its 9 x 9 mean (the image's border
+// reflected, 101), as float, the same to the bit as converting to float, cv::blur and
+// subtracting: the float box filter sums in double, and sums of counts are integers that double
+// holds exactly in any order, so the integer window sums times 1/81 are its means. One pass per
+// row (column sums slid down the rows, then the window slid along them), no float images.
+void local_detail(const cv::Mat& counts, cv::Mat& detail) {
+  constexpr int kRadius = 4, kWindow = 2 * kRadius + 1;
+  const int rows = counts.rows, cols = counts.cols;
+  detail.create(counts.size(), CV_32F);
+  // Reflected indices of the rows and columns a window reaches past the image.
+  auto source_index = [](int i, int n) {
+    return cv::borderInterpolate(i, n, cv::BORDER_REFLECT_101);
+  };
+  std::vector<int> column_sums(static_cast<std::size_t>(cols), 0);
+  std::vector<int> column_of(static_cast<std::size_t>(cols + 2 * kRadius));
+  std::vector<int> prefix(column_of.size() + 1, 0);
+  for (int i = 0; i < static_cast<int>(column_of.size()); ++i) {
+    column_of[static_cast<std::size_t>(i)] = source_index(i - kRadius, cols);
+  }
+  for (int dr = -kRadius; dr <= kRadius; ++dr) {
+    const auto* src = counts.ptr<std::uint16_t>(source_index(dr, rows));
+    for (int c = 0; c < cols; ++c) column_sums[static_cast<std::size_t>(c)] += src[c];
+  }
+  const double scale = 1.0 / (kWindow * kWindow);
+  for (int r = 0; r < rows; ++r) {
+    if (r > 0) {
+      const auto* in = counts.ptr<std::uint16_t>(source_index(r + kRadius, rows));
+      const auto* out = counts.ptr<std::uint16_t>(source_index(r - 1 - kRadius, rows));
+      for (int c = 0; c < cols; ++c) column_sums[static_cast<std::size_t>(c)] += in[c] - out[c];
+    }
+    // Running sums along the reflected row, so each window's sum is a difference of two and
+    // the loop below has no chain from pixel to pixel (it vectorises).
+    int running = 0;
+    for (std::size_t i = 0; i < column_of.size(); ++i) {
+      prefix[i + 1] = running += column_sums[static_cast<std::size_t>(column_of[i])];
+    }
+    const auto* src = counts.ptr<std::uint16_t>(r);
+    auto* d = detail.ptr<float>(r);
+    const int* window_end = prefix.data() + kWindow;
+    const int* window_start = prefix.data();
+    for (int c = 0; c < cols; ++c) {
+      const int sum = window_end[c] - window_start[c];
+      d[c] = static_cast<float>(src[c]) - static_cast<float>(sum * scale);
+    }
+  }
+}
+
 }  // namespace
 
 std::string method_name(DenseMethod method) { return util::name_of(kMethodNames, method, "?"); }
@@ -40,11 +87,31 @@ double image_noise_sigma(const cv::Mat& grey) {
   // Immerkaer (1996): the difference of two Laplacians cancels intensity that is planar over
   // 3 x 3 px; on white noise of sigma s its response has the standard deviation 6 s, so its
   // mean absolute value is sqrt(2 / pi) 6 s. Texture adds to it (an upper bound).
-  const cv::Mat kernel = (cv::Mat_<float>(3, 3) << 1, -2, 1, -2, 4, -2, 1, -2, 1);
-  cv::Mat response;
-  cv::filter2D(grey, response, CV_32F, kernel);
-  const cv::Rect inner(1, 1, grey.cols - 2, grey.rows - 2);
-  const double mean_abs = cv::mean(cv::abs(response(inner)))[0];
+  // The kernel (1 -2 1; -2 4 -2; 1 -2 1) is the outer product of (1 -2 1) with itself: per
+  // inner pixel the row filter's values of the rows above, at and below, in integers (exact,
+  // as the float filter's sums of small integers are), summed in one pass without images.
+  const int cols = grey.cols;
+  std::vector<int> above(static_cast<std::size_t>(cols)), at(above.size()), below(above.size());
+  auto row_filter = [cols](const std::uint8_t* src, std::vector<int>& out) {
+    for (int c = 1; c + 1 < cols; ++c) {
+      out[static_cast<std::size_t>(c)] = src[c - 1] - 2 * src[c] + src[c + 1];
+    }
+  };
+  row_filter(grey.ptr<std::uint8_t>(0), above);
+  row_filter(grey.ptr<std::uint8_t>(1), at);
+  long long sum = 0;
+  for (int r = 1; r + 1 < grey.rows; ++r) {
+    row_filter(grey.ptr<std::uint8_t>(r + 1), below);
+    for (int c = 1; c + 1 < cols; ++c) {
+      const auto i = static_cast<std::size_t>(c);
+      sum += std::abs(above[i] - 2 * at[i] + below[i]);
+    }
+    std::swap(above, at);
+    std::swap(at, below);
+  }
+  const long long count = static_cast<long long>(grey.rows - 2) * (cols - 2);
+  // cv::mean's scaling of its (here exact) sum: the same value as the filter2D version.
+  const double mean_abs = static_cast<double>(sum) * (1. / static_cast<double>(count));
   return mean_abs / (6.0 * std::sqrt(2.0 / M_PI));
 }
 
@@ -65,16 +132,53 @@ double textured_share(const cv::Mat& left, const DenseOptions& options) {
   const int b = options.block_size;
   if (left.rows < b || left.cols < b) return 0.0;
   // StereoBM's texture of a block: the sum over it of its pre-filter's magnitude, the x Sobel
-  // clipped at the cap (31).
-  cv::Mat sobel, magnitude, texture;
-  cv::Sobel(left, sobel, CV_16S, 1, 0, 3);
-  cv::min(cv::abs(sobel), 31, magnitude);
-  magnitude.convertTo(magnitude, CV_32S);
-  cv::boxFilter(magnitude, texture, CV_32S, cv::Size(b, b), cv::Point(-1, -1), false,
-                cv::BORDER_REPLICATE);
+  // clipped at the cap (31). In integers, as cv::Sobel, abs, min and a box filter give it
+  // exactly: the magnitude per pixel (the image's border reflected, 101, as Sobel does), then
+  // the sums of the blocks inside the image (column sums slid down the rows, running sums
+  // along them), counted where they reach the threshold.
+  const int rows = left.rows, cols = left.cols, half = b / 2;
+  std::vector<std::uint8_t> magnitude(static_cast<std::size_t>(rows) * cols);
+  for (int r = 0; r < rows; ++r) {
+    const auto* up =
+        left.ptr<std::uint8_t>(cv::borderInterpolate(r - 1, rows, cv::BORDER_REFLECT_101));
+    const auto* at = left.ptr<std::uint8_t>(r);
+    const auto* down =
+        left.ptr<std::uint8_t>(cv::borderInterpolate(r + 1, rows, cv::BORDER_REFLECT_101));
+    std::uint8_t* m = magnitude.data() + static_cast<std::size_t>(r) * cols;
+    auto sobel = [&](int c, int before, int after) {
+      const int x =
+          (up[after] - up[before]) + 2 * (at[after] - at[before]) + (down[after] - down[before]);
+      m[c] = static_cast<std::uint8_t>(std::min(std::abs(x), 31));
+    };
+    sobel(0, 1, 1);
+    for (int c = 1; c + 1 < cols; ++c) sobel(c, c - 1, c + 1);
+    sobel(cols - 1, cols - 2, cols - 2);
+  }
   const int threshold = block_texture_threshold(left, options);
-  const cv::Rect inner(b / 2, b / 2, left.cols - b + 1, left.rows - b + 1);
-  return static_cast<double>(cv::countNonZero(texture(inner) >= threshold)) / inner.area();
+  std::vector<int> column_sums(static_cast<std::size_t>(cols), 0),
+      prefix(column_sums.size() + 1, 0);
+  auto add_row = [&](int r, int sign) {
+    const std::uint8_t* m = magnitude.data() + static_cast<std::size_t>(r) * cols;
+    for (int c = 0; c < cols; ++c) column_sums[static_cast<std::size_t>(c)] += sign * m[c];
+  };
+  for (int r = 0; r < b; ++r) add_row(r, 1);
+  long long textured = 0;
+  for (int y = half; y + half < rows; ++y) {
+    if (y > half) {
+      add_row(y + half, 1);
+      add_row(y - half - 1, -1);
+    }
+    int running = 0;
+    for (int c = 0; c < cols; ++c)
+      prefix[static_cast<std::size_t>(c) + 1] = running += column_sums[static_cast<std::size_t>(c)];
+    for (int x = half; x + half < cols; ++x) {
+      textured += prefix[static_cast<std::size_t>(x + half + 1)] -
+                      prefix[static_cast<std::size_t>(x - half)] >=
+                  threshold;
+    }
+  }
+  const double inner = static_cast<double>(rows - b + 1) * (cols - b + 1);
+  return static_cast<double>(textured) / inner;
 }
 
 cv::Mat dense_disparity(const cv::Mat& left, const cv::Mat& right, double max_disparity_px,
@@ -94,7 +198,12 @@ cv::Mat dense_disparity(const cv::Mat& left, const cv::Mat& right, double max_di
   const int range = 16 * static_cast<int>(std::ceil(max_disparity_px / 16.0));
   cv::Mat fixed;  // CV_16S, 1/16 px
   if (options.method == DenseMethod::block_matching) {
-    auto bm = cv::StereoBM::create(range, options.block_size);
+    // One matcher per thread, kept: it keeps its work buffers (sized to the image and the
+    // range) from call to call instead of allocating them for every capture. Every setting is
+    // made again below, so nothing of the last call's options stays.
+    thread_local const cv::Ptr<cv::StereoBM> bm = cv::StereoBM::create(range, options.block_size);
+    bm->setNumDisparities(range);
+    bm->setBlockSize(options.block_size);
     bm->setUniquenessRatio(options.uniqueness_ratio);
     bm->setTextureThreshold(block_texture_threshold(left, options));
     bm->setSpeckleWindowSize(options.speckle_window);
@@ -137,13 +246,9 @@ void grey_pair(const cv::Mat& left, const cv::Mat& right, cv::Mat& left8, cv::Ma
       // so a linear stretch leaves the texture a few grey levels. The local detail (the image
       // less its 9 x 9 mean) is kept instead, at one gain for both eyes: 3 robust sigmas of the
       // left eye's detail over 64 grey levels. Pixels outside the cameras' field (0) stay flat.
-      cv::Mat lf, rf, lb, rb;
-      left.convertTo(lf, CV_32F);
-      right.convertTo(rf, CV_32F);
-      cv::blur(lf, lb, cv::Size(9, 9));
-      cv::blur(rf, rb, cv::Size(9, 9));
-      lf -= lb;
-      rf -= rb;
+      cv::Mat lf, rf;
+      local_detail(left, lf);
+      local_detail(right, rf);
       std::vector<float> detail;
       detail.reserve(left.total() / 4 + 1);
       for (int r = 0; r < left.rows; r += 2) {

@@ -1,11 +1,13 @@
 #include "thermovis/obstacle/obstacles.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
+#include "thermovis/obstacle/robust.hpp"
 #include "thermovis/util/enum_names.hpp"
 
 namespace thermovis::obstacle {
@@ -22,12 +24,19 @@ double horizontal_distance(const Eigen::Vector3d& p, const Eigen::Vector3d& n) {
   return (p - n.dot(p) * n).norm();
 }
 
-// The median (the upper one of an even count); reorders v.
-double median_of(std::vector<double>& v) {
-  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
-  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
+// Buffers of one pair's analysis kept from capture to capture, so that none is allocated per
+// capture once sized: per thread (the detector's methods are const and may run on several
+// threads at once) and per band (the pairs' reduced grids differ in size).
+struct PairScratch {
+  cv::Mat points;                               // CV_32FC3, ObstacleDetector::triangulate
+  cv::Mat stand;                                // CV_8U, ObstacleDetector::stixels
+  std::vector<std::pair<int, double>> members;  // a stixel's rows and disparities
+  std::vector<double> ds;                       // their disparities
+};
+
+PairScratch& scratch_for(PairBand band) {
+  thread_local std::array<PairScratch, 2> scratch;
+  return scratch[band == PairBand::visible ? 0 : 1];
 }
 
 // The point of the left pixel (column, row) of a reduced grid at disparity d (reduced px), in
@@ -41,6 +50,34 @@ bool point_at(const range::RangingGeometry& g, double column, double row, double
 }
 
 }  // namespace
+
+double median_of(std::vector<double>& v) {
+  if (v.empty()) return std::numeric_limits<double>::quiet_NaN();
+  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+std::pair<double, double> median_and_deviation(std::vector<double>& v) {
+  constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+  if (v.empty()) return {nan, nan};
+  // One sort instead of two selections: the deviations of the values below the median and of
+  // those above are each in order in the sorted values, so the median of all of them is n / 2
+  // steps of merging the two. (d - m and m - d are exactly |d - m|: the same values.)
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size(), m = n / 2;
+  const double median = v[m];
+  std::size_t below = m, above = m;  // the next deviations: of v[below - 1] and of v[above]
+  double deviation = 0;
+  for (std::size_t k = 0; k <= m; ++k) {
+    if (below == 0 || (above < n && v[above] - median <= median - v[below - 1])) {
+      deviation = v[above++] - median;
+    } else {
+      deviation = median - v[--below];
+    }
+  }
+  return {median, deviation};
+}
 
 std::string band_name(PairBand band) { return util::name_of(kBandNames, band, "unknown"); }
 
@@ -184,14 +221,18 @@ void ObstacleDetector::triangulate(const Pair& p, const cv::Mat& disparity, cv::
     points.create(disparity.size(), CV_32FC3);
     points.setTo(cv::Scalar::all(kNan));
   }
+  const cv::Vec3f none(kNan, kNan, kNan);
   const int column_step = std::max(1, options_.ground.column_step);
   for (int row = 0; row < r.height; ++row) {
     const double beta = p.row_beta[static_cast<std::size_t>(row)];
     const double sb = std::sin(beta), cb = std::cos(beta);
     const auto* d = disparity.ptr<float>(row);
     auto* out = points.ptr<cv::Vec3f>(row);
-    for (int c = 0; c < r.width; ++c) {
-      if (!(d[c] > 0) || ((c % column_step == 0) != ground_columns)) continue;
+    // Each pixel of the columns asked for is written, its point or NaN, so a buffer reused from
+    // the last capture needs no reset.
+    auto point = [&](int c) {
+      out[c] = none;
+      if (!(d[c] > 0)) return;
       const auto i = static_cast<std::size_t>(c);
       const double right_column = c - d[c];
       const double step = right_column * steps - first_step;
@@ -204,19 +245,28 @@ void ObstacleDetector::triangulate(const Pair& p, const cv::Mat& disparity, cv::
         sr = std::abs(a) < M_PI / 2 ? std::sin(a) : kNan;
         cr = std::cos(a);
       }
-      if (!std::isfinite(sr)) continue;
+      if (!std::isfinite(sr)) return;
       const Eigen::Vector3d u(sin_a[i], cos_a[i] * sb, cos_a[i] * cb);
       double B;
       if (on_axis) {
         const double s = sin_a[i] * cr - cos_a[i] * sr;  // sin(alpha_L - alpha_R)
-        if (!(s > 1e-9)) continue;
+        if (!(s > 1e-9)) return;
         B = A * cr / s;
       } else {
         B = range::distance_on_left_ray(u, right_centre, sr);
       }
-      if (!(B > 0) || !std::isfinite(B)) continue;
+      if (!(B > 0) || !std::isfinite(B)) return;
       out[c] = cv::Vec3f(static_cast<float>(B * u.x()), static_cast<float>(B * u.y()),
                          static_cast<float>(B * u.z()));
+    };
+    // The ground's columns (every column_step-th from 0) or those between them, stepped over
+    // rather than tested with a modulo per pixel.
+    for (int c0 = 0; c0 < r.width; c0 += column_step) {
+      if (ground_columns) {
+        point(c0);
+        continue;
+      }
+      for (int c = c0 + 1; c < std::min(c0 + column_step, r.width); ++c) point(c);
     }
   }
 }
@@ -231,7 +281,9 @@ std::vector<Stixel> ObstacleDetector::stixels(const Pair& p, const cv::Mat& disp
   // Each pixel: whether it stands above the ground by more than min_height_m and 3 sigma of its
   // height's noise (its point moves along its ray by B^2 / (f A) per px); whether it is on the
   // ground (within min_height_m), counted per column for the free space.
-  cv::Mat stand(points.size(), CV_8U, cv::Scalar(0));
+  PairScratch& scratch = scratch_for(p.setup.band);
+  cv::Mat& stand = scratch.stand;
+  stand.create(points.size(), CV_8U);  // every pixel written below
   ground_pixels.assign(static_cast<std::size_t>(r.width), 0);
   const Eigen::Vector3f n = ground.normal.cast<float>();
   const auto h = static_cast<float>(ground.height_m);
@@ -242,6 +294,7 @@ std::vector<Stixel> ObstacleDetector::stixels(const Pair& p, const cv::Mat& disp
     auto* st = stand.ptr<std::uint8_t>(row);
     for (int c = 0; c < r.width; ++c) {
       const cv::Vec3f& P = pv[c];
+      st[c] = 0;
       if (!std::isfinite(P[2])) continue;
       const float down = n.x() * P[0] + n.y() * P[1] + n.z() * P[2];
       const float height = h - down;
@@ -254,8 +307,8 @@ std::vector<Stixel> ObstacleDetector::stixels(const Pair& p, const cv::Mat& disp
     }
   }
   std::vector<Stixel> out;
-  std::vector<std::pair<int, double>> members;  // row, disparity
-  std::vector<double> ds, deviations;
+  std::vector<std::pair<int, double>>& members = scratch.members;  // row, disparity
+  std::vector<double>& ds = scratch.ds;
   for (int c = 0; c < r.width; ++c) {
     auto stands = [&](int row) { return stand.at<std::uint8_t>(row, c) != 0; };
     for (int row = r.height - 1; row >= 0; --row) {
@@ -281,10 +334,8 @@ std::vector<Stixel> ObstacleDetector::stixels(const Pair& p, const cv::Mat& disp
       if (static_cast<int>(members.size()) < options_.min_stixel_rows) continue;
       ds.clear();
       for (const auto& m : members) ds.push_back(m.second);
-      const double d_med = median_of(ds);
-      deviations.clear();
-      for (double d : ds) deviations.push_back(std::abs(d - d_med));
-      const double spread = std::max(1.4826 * median_of(deviations), options_.disparity_sigma_px);
+      const auto [d_med, deviation] = median_and_deviation(ds);
+      const double spread = std::max(1.4826 * deviation, options_.disparity_sigma_px);
       Eigen::Vector3d top_p, mid_p, near_p, far_p, base_p;
       const double mid_row = 0.5 * (row + top);
       if (!point_at(p.reduced, c, row, d_med, base_p) ||
@@ -431,7 +482,7 @@ PairObstacles ObstacleDetector::analyse(PairBand band, const cv::Mat& disparity,
   out.band = band;
   out.free_space_m.assign(static_cast<std::size_t>(grid_.width), kNan);
   // The columns the ground is fitted on first; the others only when there is a ground.
-  cv::Mat points;
+  cv::Mat& points = scratch_for(band).points;
   triangulate(p, disparity, points, true);
   if (rig_ground != nullptr) {
     out.ground.status = GroundStatus::ok;
@@ -492,7 +543,13 @@ cv::Mat ObstacleDetector::disparity(PairBand band, const cv::Mat& left,
                                     const cv::Mat& right) const {
   cv::Mat left8, right8;
   reduce_pair(band, left, right, left8, right8);
-  const DenseOptions dense = dense_options_for(left);
+  DenseOptions dense = dense_options_for(left);
+  if (dense.method == DenseMethod::block_matching) {
+    // The texture threshold (its noise estimate a filter over the whole image) once, for both
+    // textured_share and the matcher, which would each measure it again: the same threshold.
+    dense.texture_threshold = block_texture_threshold(left8, dense);
+    dense.texture_noise_factor = 0;
+  }
   // Block matching gives a disparity to no more pixels than have a block with texture: where
   // that is less than the ground fit needs (min_valid_share, then no_disparity), not matched
   // (on the simulated road the infrared pair's, whose detail is its fixed pattern).

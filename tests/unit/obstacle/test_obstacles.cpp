@@ -6,8 +6,11 @@
 #include <cmath>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
+#include <random>
+#include <thread>
 
 #include "thermovis/obstacle/obstacles.hpp"
+#include "thermovis/obstacle/robust.hpp"
 #include "thermovis/pipeline/capture_pipeline.hpp"
 #include "thermovis/runtime/rig_io.hpp"
 #include "thermovis/runtime/scene_io.hpp"
@@ -453,4 +456,253 @@ TEST(DenseDisparity, BadPixelsAgainstATruth) {
   EXPECT_DOUBLE_EQ(a.bad1_valid, 2.0 / 3.0);
   EXPECT_DOUBLE_EQ(a.bad2_valid, 1.0 / 3.0);
   EXPECT_THROW(ob::evaluate_dense(d, truth(cv::Rect(0, 0, 4, 1))), std::invalid_argument);
+}
+
+// The stixels' one-sort median and deviation give exactly the two selections' values (the
+// detector's results do not move), on disparities in the matchers' 1/16 px steps with ties, and
+// on arbitrary ones.
+TEST(RobustStatistics, TheMedianAndDeviationAreTheTwoMediansValues) {
+  std::mt19937 random(7);
+  for (int trial = 0; trial < 2000; ++trial) {
+    const int n = 1 + trial % 61;
+    const bool steps = trial % 2 == 0;
+    std::uniform_real_distribution<double> value(10.0, 10.0 + (trial % 7 + 1) * 0.5);
+    std::vector<double> v(static_cast<std::size_t>(n));
+    for (double& x : v) x = steps ? std::round(value(random) * 16) / 16 : value(random);
+    std::vector<double> a = v, b = v;
+    const double median = ob::median_of(a);
+    std::vector<double> deviations;
+    for (double x : a) deviations.push_back(std::abs(x - median));
+    const double deviation = ob::median_of(deviations);
+    const auto [m, d] = ob::median_and_deviation(b);
+    ASSERT_EQ(m, median) << "n " << n;
+    ASSERT_EQ(d, deviation) << "n " << n;
+  }
+  std::vector<double> none;
+  EXPECT_TRUE(std::isnan(ob::median_and_deviation(none).first));
+}
+
+namespace {
+
+void expect_same(const ob::ObstacleResult& a, const ob::ObstacleResult& b, int frame) {
+  ASSERT_EQ(a.pairs.size(), b.pairs.size());
+  for (std::size_t i = 0; i < a.pairs.size(); ++i) {
+    const ob::PairObstacles &p = a.pairs[i], &q = b.pairs[i];
+    EXPECT_EQ(p.ground.status, q.ground.status) << "frame " << frame;
+    EXPECT_EQ(p.ground.inlier_pixels, q.ground.inlier_pixels) << "frame " << frame;
+    EXPECT_EQ(p.ground.plane.normal, q.ground.plane.normal) << "frame " << frame;
+    ASSERT_EQ(p.stixels.size(), q.stixels.size()) << "frame " << frame;
+    for (std::size_t k = 0; k < p.stixels.size(); ++k) {
+      EXPECT_EQ(p.stixels[k].column, q.stixels[k].column);
+      EXPECT_EQ(p.stixels[k].top_row, q.stixels[k].top_row);
+      EXPECT_EQ(p.stixels[k].distance_m, q.stixels[k].distance_m);
+      EXPECT_EQ(p.stixels[k].sigma_m, q.stixels[k].sigma_m);
+    }
+  }
+  ASSERT_EQ(a.obstacles.size(), b.obstacles.size()) << "frame " << frame;
+  for (std::size_t k = 0; k < a.obstacles.size(); ++k) {
+    EXPECT_EQ(a.obstacles[k].box, b.obstacles[k].box) << "frame " << frame;
+    EXPECT_EQ(a.obstacles[k].distance_m, b.obstacles[k].distance_m) << "frame " << frame;
+  }
+  ASSERT_EQ(a.free_space_m.size(), b.free_space_m.size());
+  for (std::size_t x = 0; x < a.free_space_m.size(); ++x) {
+    const float u = a.free_space_m[x], v = b.free_space_m[x];
+    EXPECT_TRUE(u == v || (std::isnan(u) && std::isnan(v))) << "frame " << frame << " x " << x;
+  }
+}
+
+}  // namespace
+
+// The detector keeps its buffers from capture to capture (per thread): captures after others,
+// one of them again, give what a thread that has seen none gives (no state leaks into the next
+// capture), with both pairs and the share of the ground between them.
+TEST(ObstacleDetectorOnSimulatedStreet, BuffersKeptFromTheLastCaptureChangeNothing) {
+  namespace pl = thermovis::pipeline;
+  namespace sim = thermovis::sim;
+  const auto rig = thermovis::runtime::load_rig(thermovis::runtime::default_rig_path());
+  const sim::Scene scene =
+      thermovis::runtime::load_scene(thermovis::runtime::shipped_scene_path("street"));
+  const sim::SimulatedRig simulated(rig, scene, 1);
+  pl::CapturePipeline pipeline(rig);
+  const pl::PipelineGeometry& g = pipeline.geometry();
+  ob::ObstacleOptions options;
+  options.share_ground = true;
+  const ob::ObstacleDetector d(g.grid,
+                               {{ob::PairBand::visible, g.ranging(pl::Band::visible)},
+                                {ob::PairBand::infrared, g.ranging(pl::Band::infrared)}},
+                               g.T_ref_reporting, ob::GroundPrior{scene.camera_height_m, 0.0, 0.0},
+                               options);
+  sim::FrameSet frames = simulated.allocate();
+  for (const std::int64_t frame : {0, 30, 0}) {
+    simulated.render(frame, frames);
+    const pl::GridCapture c =
+        pipeline.rectify({frames[sim::Slot::visible_left], frames[sim::Slot::visible_right],
+                          frames[sim::Slot::infrared_left], frames[sim::Slot::infrared_right]});
+    const ob::ObstacleResult kept =
+        d.detect(c.grey_left, c.grey_right, c.infrared_left, c.infrared_right);
+    ob::ObstacleResult fresh;
+    std::thread([&] {
+      fresh = d.detect(c.grey_left, c.grey_right, c.infrared_left, c.infrared_right);
+    }).join();
+    ASSERT_FALSE(kept.obstacles.empty());
+    expect_same(kept, fresh, static_cast<int>(frame));
+  }
+}
+
+// The noise estimate in one integer pass is the filter's (filter2D over the image, the mean of
+// its magnitude inside the border) to the bit, on noise, a ramp and a simulated-like texture.
+TEST(DenseDisparity, TheNoiseEstimateIsTheFiltersValue) {
+  std::mt19937 random(3);
+  for (const cv::Size size : {cv::Size(3, 3), cv::Size(17, 5), cv::Size(468, 138)}) {
+    for (int kind = 0; kind < 3; ++kind) {
+      cv::Mat grey(size, CV_8U);
+      std::uniform_int_distribution<int> level(0, 255), small(-4, 4);
+      for (int r = 0; r < grey.rows; ++r) {
+        for (int c = 0; c < grey.cols; ++c) {
+          const int v = kind == 0 ? level(random) : kind == 1 ? c + 2 * r + small(random) : 128;
+          grey.at<std::uint8_t>(r, c) = cv::saturate_cast<std::uint8_t>(v);
+        }
+      }
+      const cv::Mat kernel = (cv::Mat_<float>(3, 3) << 1, -2, 1, -2, 4, -2, 1, -2, 1);
+      cv::Mat response;
+      cv::filter2D(grey, response, CV_32F, kernel);
+      const cv::Rect inner(1, 1, grey.cols - 2, grey.rows - 2);
+      const double reference =
+          cv::mean(cv::abs(response(inner)))[0] / (6.0 * std::sqrt(2.0 / M_PI));
+      EXPECT_EQ(ob::image_noise_sigma(grey), reference) << size << " kind " << kind;
+    }
+  }
+}
+
+namespace {
+
+// Infrared counts to grey (grey_pair) as it was written with OpenCV calls: float images, a 9 x 9
+// cv::blur, the detail's robust spread from every other pixel, the stretch, the flat border.
+// The one-pass detail must give the same grey images to the bit.
+void reference_grey_counts(const cv::Mat& left, const cv::Mat& right, cv::Mat& left8,
+                           cv::Mat& right8) {
+  cv::Mat lf, rf, lb, rb;
+  left.convertTo(lf, CV_32F);
+  right.convertTo(rf, CV_32F);
+  cv::blur(lf, lb, cv::Size(9, 9));
+  cv::blur(rf, rb, cv::Size(9, 9));
+  lf -= lb;
+  rf -= rb;
+  std::vector<float> detail;
+  for (int r = 0; r < left.rows; r += 2) {
+    for (int c = 0; c < left.cols; c += 2) {
+      if (left.at<std::uint16_t>(r, c) != 0) detail.push_back(std::abs(lf.at<float>(r, c)));
+    }
+  }
+  float spread = 1.0f;
+  if (!detail.empty()) {
+    const auto mid = detail.begin() + static_cast<std::ptrdiff_t>(detail.size() / 2);
+    std::nth_element(detail.begin(), mid, detail.end());
+    spread = std::max(1.4826f * *mid, 1e-3f);
+  }
+  const double gain = 64.0 / (3.0 * spread);
+  lf.convertTo(left8, CV_8U, gain, 128.0);
+  rf.convertTo(right8, CV_8U, gain, 128.0);
+  left8.setTo(128, left == 0);
+  right8.setTo(128, right == 0);
+}
+
+}  // namespace
+
+TEST(DenseDisparity, InfraredCountsToGreyAreTheReferencesToTheBit) {
+  std::mt19937 random(11);
+  std::vector<std::pair<cv::Mat, cv::Mat>> pairs;
+  for (const cv::Size size : {cv::Size(16, 16), cv::Size(23, 9), cv::Size(468, 134)}) {
+    cv::Mat l(size, CV_16U), r(size, CV_16U);
+    std::uniform_int_distribution<int> counts(7000, 7400), wide(0, 65535);
+    for (int y = 0; y < size.height; ++y) {
+      for (int x = 0; x < size.width; ++x) {
+        l.at<std::uint16_t>(y, x) = static_cast<std::uint16_t>(x < 3 ? 0 : counts(random));
+        r.at<std::uint16_t>(y, x) = static_cast<std::uint16_t>(y % 5 == 0 ? wide(random) : 7200);
+      }
+    }
+    pairs.emplace_back(l, r);
+  }
+  namespace pl = thermovis::pipeline;
+  namespace sim = thermovis::sim;
+  const auto rig = thermovis::runtime::load_rig(thermovis::runtime::default_rig_path());
+  const sim::SimulatedRig simulated(
+      rig, thermovis::runtime::load_scene(thermovis::runtime::shipped_scene_path("street")), 1);
+  pl::CapturePipeline pipeline(rig);
+  sim::FrameSet frames = simulated.allocate();
+  simulated.render(0, frames);
+  const pl::GridCapture c =
+      pipeline.rectify({frames[sim::Slot::visible_left], frames[sim::Slot::visible_right],
+                        frames[sim::Slot::infrared_left], frames[sim::Slot::infrared_right]});
+  ASSERT_EQ(c.infrared_left.type(), CV_16UC1);
+  pairs.emplace_back(c.infrared_left, c.infrared_right);
+  for (const auto& [l, r] : pairs) {
+    cv::Mat l8, r8, want_l8, want_r8;
+    ob::grey_pair(l, r, l8, r8);
+    reference_grey_counts(l, r, want_l8, want_r8);
+    EXPECT_EQ(cv::norm(l8, want_l8, cv::NORM_INF), 0) << l.size();
+    EXPECT_EQ(cv::norm(r8, want_r8, cv::NORM_INF), 0) << l.size();
+  }
+}
+
+namespace {
+
+// textured_share as it was written with OpenCV calls (Sobel, abs, min, a box filter, a count).
+double reference_textured_share(const cv::Mat& left, const ob::DenseOptions& options) {
+  const int b = options.block_size;
+  cv::Mat sobel, magnitude, texture;
+  cv::Sobel(left, sobel, CV_16S, 1, 0, 3);
+  cv::min(cv::abs(sobel), 31, magnitude);
+  magnitude.convertTo(magnitude, CV_32S);
+  cv::boxFilter(magnitude, texture, CV_32S, cv::Size(b, b), cv::Point(-1, -1), false,
+                cv::BORDER_REPLICATE);
+  const int threshold = ob::block_texture_threshold(left, options);
+  const cv::Rect inner(b / 2, b / 2, left.cols - b + 1, left.rows - b + 1);
+  return static_cast<double>(cv::countNonZero(texture(inner) >= threshold)) / inner.area();
+}
+
+}  // namespace
+
+// The textured share in one integer pass is the OpenCV calls' to the bit: random and smooth
+// images, block sizes, fixed and noise-relative thresholds, the simulated visible image.
+TEST(DenseDisparity, TheTexturedShareIsTheReferencesToTheBit) {
+  std::mt19937 random(5);
+  std::vector<cv::Mat> images;
+  for (const cv::Size size : {cv::Size(5, 5), cv::Size(31, 12), cv::Size(468, 138)}) {
+    for (int kind = 0; kind < 2; ++kind) {
+      cv::Mat grey(size, CV_8U);
+      std::uniform_int_distribution<int> level(0, 255), small(-3, 3);
+      for (int r = 0; r < grey.rows; ++r) {
+        for (int c = 0; c < grey.cols; ++c) {
+          const int v = kind == 0 ? level(random) : 100 + c / 3 + small(random);
+          grey.at<std::uint8_t>(r, c) = cv::saturate_cast<std::uint8_t>(v);
+        }
+      }
+      images.push_back(grey);
+    }
+  }
+  namespace pl = thermovis::pipeline;
+  namespace sim = thermovis::sim;
+  const auto rig = thermovis::runtime::load_rig(thermovis::runtime::default_rig_path());
+  const sim::SimulatedRig simulated(
+      rig, thermovis::runtime::load_scene(thermovis::runtime::shipped_scene_path("street")), 1);
+  pl::CapturePipeline pipeline(rig);
+  sim::FrameSet frames = simulated.allocate();
+  simulated.render(0, frames);
+  const pl::GridCapture c =
+      pipeline.rectify({frames[sim::Slot::visible_left], frames[sim::Slot::visible_right],
+                        frames[sim::Slot::infrared_left], frames[sim::Slot::infrared_right]});
+  images.push_back(c.grey_left);
+  for (const cv::Mat& image : images) {
+    for (const int block : {5, 7, 9}) {
+      for (const double factor : {0.0, 1.5, 2.5}) {
+        ob::DenseOptions options;
+        options.block_size = block;
+        options.texture_noise_factor = factor;
+        if (image.rows < block || image.cols < block) continue;
+        EXPECT_EQ(ob::textured_share(image, options), reference_textured_share(image, options))
+            << image.size() << " block " << block << " factor " << factor;
+      }
+    }
+  }
 }
