@@ -576,6 +576,24 @@ TEST(DenseDisparity, TheNoiseEstimateIsTheFiltersValue) {
 
 namespace {
 
+// Capture 0 of the shipped street scene on the pipeline grid.
+thermovis::pipeline::GridCapture street_capture() {
+  namespace pl = thermovis::pipeline;
+  namespace sim = thermovis::sim;
+  const auto rig = thermovis::runtime::load_rig(thermovis::runtime::default_rig_path());
+  const sim::SimulatedRig simulated(
+      rig, thermovis::runtime::load_scene(thermovis::runtime::shipped_scene_path("street")), 1);
+  pl::CapturePipeline pipeline(rig);
+  sim::FrameSet frames = simulated.allocate();
+  simulated.render(0, frames);
+  return pipeline.rectify({frames[sim::Slot::visible_left], frames[sim::Slot::visible_right],
+                           frames[sim::Slot::infrared_left], frames[sim::Slot::infrared_right]});
+}
+
+}  // namespace
+
+namespace {
+
 // Infrared counts to grey (grey_pair) as it was written with OpenCV calls: float images, a 9 x 9
 // cv::blur, the detail's robust spread from every other pixel, the stretch, the flat border.
 // The one-pass detail must give the same grey images to the bit.
@@ -623,17 +641,7 @@ TEST(DenseDisparity, InfraredCountsToGreyAreTheReferencesToTheBit) {
     }
     pairs.emplace_back(l, r);
   }
-  namespace pl = thermovis::pipeline;
-  namespace sim = thermovis::sim;
-  const auto rig = thermovis::runtime::load_rig(thermovis::runtime::default_rig_path());
-  const sim::SimulatedRig simulated(
-      rig, thermovis::runtime::load_scene(thermovis::runtime::shipped_scene_path("street")), 1);
-  pl::CapturePipeline pipeline(rig);
-  sim::FrameSet frames = simulated.allocate();
-  simulated.render(0, frames);
-  const pl::GridCapture c =
-      pipeline.rectify({frames[sim::Slot::visible_left], frames[sim::Slot::visible_right],
-                        frames[sim::Slot::infrared_left], frames[sim::Slot::infrared_right]});
+  const thermovis::pipeline::GridCapture c = street_capture();
   ASSERT_EQ(c.infrared_left.type(), CV_16UC1);
   pairs.emplace_back(c.infrared_left, c.infrared_right);
   for (const auto& [l, r] : pairs) {
@@ -681,17 +689,7 @@ TEST(DenseDisparity, TheTexturedShareIsTheReferencesToTheBit) {
       images.push_back(grey);
     }
   }
-  namespace pl = thermovis::pipeline;
-  namespace sim = thermovis::sim;
-  const auto rig = thermovis::runtime::load_rig(thermovis::runtime::default_rig_path());
-  const sim::SimulatedRig simulated(
-      rig, thermovis::runtime::load_scene(thermovis::runtime::shipped_scene_path("street")), 1);
-  pl::CapturePipeline pipeline(rig);
-  sim::FrameSet frames = simulated.allocate();
-  simulated.render(0, frames);
-  const pl::GridCapture c =
-      pipeline.rectify({frames[sim::Slot::visible_left], frames[sim::Slot::visible_right],
-                        frames[sim::Slot::infrared_left], frames[sim::Slot::infrared_right]});
+  const thermovis::pipeline::GridCapture c = street_capture();
   images.push_back(c.grey_left);
   for (const cv::Mat& image : images) {
     for (const int block : {5, 7, 9}) {
