@@ -10,14 +10,6 @@ namespace thermovis::pipeline {
 
 namespace {
 
-int reduction_for(const camera::RectifiedIntrinsics& grid, double px_per_rad) {
-  if (px_per_rad < 0 || !std::isfinite(px_per_rad)) {
-    throw std::invalid_argument("detect: reduced_px_per_rad must be >= 0");
-  }
-  if (px_per_rad == 0) return 1;
-  return std::max(1, static_cast<int>(std::lround(grid.f / px_per_rad)));
-}
-
 // The grid reduced by k: its first k * (size / k) columns and rows box-filtered, k x k pixels to
 // one, so pixel centres move as in camera::scaled but the size is the whole blocks'.
 camera::RectifiedIntrinsics reduced(const camera::RectifiedIntrinsics& grid, int k) {
@@ -35,7 +27,7 @@ camera::RectifiedIntrinsics reduced(const camera::RectifiedIntrinsics& grid, int
 DetectStage::DetectStage(const PipelineGeometry& geometry, const DetectOptions& options)
     : grid_(geometry.grid),
       options_(options),
-      reduction_(reduction_for(geometry.grid, options.reduced_px_per_rad)),
+      reduction_(grid_reduction(geometry.grid, options.reduced_px_per_rad)),
       reduced_grid_(reduced(geometry.grid, reduction_)) {
   if (!options_.infrared_model.empty()) {
     detect::PersonDetectorOptions o;

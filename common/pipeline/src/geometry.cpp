@@ -86,6 +86,14 @@ std::uint32_t PipelineGeometry::id() const {
   return d.value();
 }
 
+int grid_reduction(const camera::RectifiedIntrinsics& grid, double px_per_rad) {
+  if (px_per_rad < 0 || !std::isfinite(px_per_rad)) {
+    throw std::invalid_argument("reduced_px_per_rad must be >= 0");
+  }
+  if (px_per_rad == 0) return 1;
+  return std::max(1, static_cast<int>(std::lround(grid.f / px_per_rad)));
+}
+
 PipelineGeometry make_geometry(const camera::Rig& rig, const GridOptions& options) {
   PipelineGeometry out;
   out.grid = camera::scaled(rectify::default_pair_grid(rig, rig.visible, options.projection),

@@ -25,13 +25,8 @@ std::vector<ob::PairSetup> pair_setups(const PipelineGeometry& geometry,
 
 // The options with the reduction chosen for the grid (ObstacleStageOptions::reduced_px_per_rad).
 ObstacleStageOptions for_grid(const PipelineGeometry& geometry, ObstacleStageOptions options) {
-  if (options.reduced_px_per_rad < 0 || !std::isfinite(options.reduced_px_per_rad)) {
-    throw std::invalid_argument("reduced_px_per_rad must be >= 0");
-  }
-  if (options.reduced_px_per_rad > 0) {
-    options.obstacles.reduction =
-        std::max(1, static_cast<int>(std::lround(geometry.grid.f / options.reduced_px_per_rad)));
-  }
+  const int reduction = grid_reduction(geometry.grid, options.reduced_px_per_rad);
+  if (options.reduced_px_per_rad > 0) options.obstacles.reduction = reduction;
   return options;
 }
 

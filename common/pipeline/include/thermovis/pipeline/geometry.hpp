@@ -66,6 +66,11 @@ struct PipelineGeometry {
 // Throws std::invalid_argument for a rig without its pairs' cameras or a degenerate pair.
 PipelineGeometry make_geometry(const camera::Rig& rig, const GridOptions& options);
 
+// The integer factor that reduces `grid` to about px_per_rad (a stage working on fewer pixels
+// than the grid has): lround(f / px_per_rad), at least 1; 1 for px_per_rad 0. Throws
+// std::invalid_argument for a negative or non-finite px_per_rad.
+int grid_reduction(const camera::RectifiedIntrinsics& grid, double px_per_rad);
+
 // Checks a geometry received from elsewhere (a message, a file): std::invalid_argument naming
 // the field for a grid that is empty or larger than `max_size`, a non-finite or non-positive f,
 // a non-finite centre or pose, a rotation that is not one (|R^T R - I| > 1e-6), the two pairs
