@@ -40,16 +40,18 @@ range::TargetRange RangeStage::range_entry(const TargetEntry& entry, double& sha
   if (!options_.surface) options.shape = range::TargetShape::for_class(entry.label);
   shared_sigma_m = options.shape.empty() ? 0.0 : options.shape_sigma_m;
   const double to_centre = options_.surface ? 0.0 : range::surface_to_centre_m(entry.label);
-  range::TargetRange points;
-  if (options_.estimate != RangeEstimate::region) {
-    points = range::range_target(geometry, entry.box, entry.points, options);
-    if (!options_.surface && options.shape.empty())
-      range::move_to_centre(points, geometry, to_centre);
-    if (options_.estimate == RangeEstimate::points) return points;
+  if (options_.estimate == RangeEstimate::region)
+    return range::range_region(geometry, entry.box, entry.region, to_centre, options);
+  range::TargetRange region;
+  if (options_.estimate == RangeEstimate::both) {
+    region = range::range_region(geometry, entry.box, entry.region, to_centre, options);
+    // The whole region is where the target's points are: a group elsewhere is a mismatch.
+    if (region.status == range::RangeStatus::ok) options.group_hint_m = region.distance_m;
   }
-  range::TargetRange region =
-      range::range_region(geometry, entry.box, entry.region, to_centre, options);
-  if (options_.estimate == RangeEstimate::region) return region;
+  range::TargetRange points = range::range_target(geometry, entry.box, entry.points, options);
+  if (!options_.surface && options.shape.empty())
+    range::move_to_centre(points, geometry, to_centre);
+  if (options_.estimate == RangeEstimate::points) return points;
   // The points and the region see the same pixels: their shared error is at least the
   // systematic floor and the shape's, kept whole by the combination.
   double shared_in_pair = shared_sigma_m;

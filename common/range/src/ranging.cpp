@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <numeric>
 #include <random>
 #include <sstream>
@@ -184,7 +185,7 @@ size_t dense_need(size_t count) { return std::max<size_t>(3, (3 * count + 9) / 1
 // (|v - values[i]| <= windows[i], monotone in v) are one contiguous run found by bisection.
 std::vector<int> nearest_dense_group(const std::vector<double>& values,
                                      const std::vector<double>& windows,
-                                     const std::vector<double>& sorted, size_t need) {
+                                     const std::vector<double>& sorted, size_t need, double hint) {
   const auto neighbours = [&](size_t i) {
     const double x = values[i], w = windows[i];
     const auto lo =
@@ -193,20 +194,36 @@ std::vector<int> nearest_dense_group(const std::vector<double>& values,
     return static_cast<size_t>(hi - lo);
   };
   std::vector<int> kept;
-  int anchor = -1;
-  for (size_t i = 0; i < values.size(); ++i) {
-    if (anchor >= 0 && values[i] >= values[static_cast<size_t>(anchor)]) continue;
-    if (neighbours(i) >= need) anchor = static_cast<int>(i);
-  }
-  if (anchor < 0) return kept;
-  const double from = values[static_cast<size_t>(anchor)];
-  size_t mode = static_cast<size_t>(anchor), most = 0;
-  for (size_t i = 0; i < values.size(); ++i) {
-    if (values[i] < from || values[i] > from + windows[static_cast<size_t>(anchor)]) continue;
-    const size_t n = neighbours(i);
-    if (n > most || (n == most && values[i] < values[mode])) {
-      most = n;
-      mode = i;
+  size_t mode = 0;
+  if (std::isfinite(hint)) {
+    // The densest value near the hint is the group's mode (the nearest of equals).
+    size_t most = 0;
+    for (size_t i = 0; i < values.size(); ++i) {
+      if (std::abs(values[i] - hint) > 2.0 * windows[i]) continue;
+      const size_t n = neighbours(i);
+      if (n > most || (n == most && values[i] < values[mode])) {
+        most = n;
+        mode = i;
+      }
+    }
+    if (most < 3) return kept;
+  } else {
+    int anchor = -1;
+    for (size_t i = 0; i < values.size(); ++i) {
+      if (anchor >= 0 && values[i] >= values[static_cast<size_t>(anchor)]) continue;
+      if (neighbours(i) >= need) anchor = static_cast<int>(i);
+    }
+    if (anchor < 0) return kept;
+    const double from = values[static_cast<size_t>(anchor)];
+    mode = static_cast<size_t>(anchor);
+    size_t most = 0;
+    for (size_t i = 0; i < values.size(); ++i) {
+      if (values[i] < from || values[i] > from + windows[static_cast<size_t>(anchor)]) continue;
+      const size_t n = neighbours(i);
+      if (n > most || (n == most && values[i] < values[mode])) {
+        most = n;
+        mode = i;
+      }
     }
   }
   const double centre = values[mode];
@@ -262,7 +279,7 @@ void screen_then_eq34(const double* values, size_t count, int max_passes, Eq34Sc
 }  // namespace
 
 std::vector<int> reject_outliers_eq34(const std::vector<double>& values, int max_passes,
-                                      const std::vector<double>& windows) {
+                                      const std::vector<double>& windows, double hint) {
   if (values.empty()) return {};
   Eq34Scratch s;
   s.sorted = values;
@@ -271,7 +288,8 @@ std::vector<int> reject_outliers_eq34(const std::vector<double>& values, int max
   // the legs) gives distances spread without a gap, so no cluster split below separates them:
   // the target is the nearest group of values as close together as its own depth and noise.
   if (windows.size() == values.size()) {
-    s.kept = nearest_dense_group(values, windows, s.sorted, dense_need(values.size()));
+    s.kept = nearest_dense_group(values, windows, s.sorted, dense_need(values.size()), hint);
+    if (s.kept.empty() && std::isfinite(hint)) return {};
     if (!s.kept.empty()) {
       // The group is consistent by construction: Eq. 34 trims it, but a pass that would leave
       // fewer than 3 of its values (one mean absolute deviation of a handful is tight) is not
@@ -523,14 +541,18 @@ TargetRange range_target(const RangingGeometry& geometry, const cv::Rect& box,
           std::max(options.group_relative * distances[i], options.group_disparity_px * per_px[i]));
     }
   }
+  const double hint = windows.empty() ? TargetRange::nan : options.group_hint_m;
   const std::vector<int> kept =
-      reject_outliers_eq34(distances, options.max_rejection_passes, windows);
+      reject_outliers_eq34(distances, options.max_rejection_passes, windows, hint);
   r.points_used = static_cast<int>(kept.size());
   if (r.points_used < std::max(1, options.min_points)) {
+    std::ostringstream near_hint;
+    if (std::isfinite(hint))
+      near_hint << std::fixed << std::setprecision(2) << " within two windows of " << hint << " m";
     return fail(r,
                 r.at_image_edge ? RangeStatus::target_at_image_edge : RangeStatus::too_few_points,
-                where.str() + ": " + std::to_string(r.points_used) + " point(s) kept by Eq. 34, " +
-                    std::to_string(options.min_points) + " needed" +
+                where.str() + ": " + std::to_string(r.points_used) + " point(s) kept by Eq. 34" +
+                    near_hint.str() + ", " + std::to_string(options.min_points) + " needed" +
                     (r.at_image_edge ? " (the box touches the image edge)" : ""));
   }
   for (int i : kept) r.used.push_back(source[static_cast<size_t>(i)]);
@@ -557,7 +579,7 @@ TargetRange range_target(const RangingGeometry& geometry, const cv::Rect& box,
   // background: a few such resamples made sigma metres for a target ranged to centimetres.
   double random_sigma = 0;
   std::vector<double> screened;
-  for (int i : reject_outliers_eq34(distances, 0, windows))
+  for (int i : reject_outliers_eq34(distances, 0, windows, hint))
     screened.push_back(distances[static_cast<size_t>(i)]);
   if (screened.size() >= 2 && options.bootstrap_samples > 1) {
     std::mt19937 rng(static_cast<unsigned>(screened.size()) * 2654435761u);

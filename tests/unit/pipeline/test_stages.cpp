@@ -128,6 +128,50 @@ TEST(RangeStage, CombinesTwoPairsAndRefusesTwoEntriesOfOne) {
   EXPECT_FALSE(none.range.message.empty());
 }
 
+// A box whose few points hold a nearer group of 30 % (a repeated texture matched one period
+// off) and whose whole region aligned at the target's disparity: the points near the region
+// range it, not the nearer group; points that lie nowhere near the region give way to it.
+TEST(RangeStage, TheRegionChoosesAmongTheGroupsOfAFewPoints) {
+  const Pairs pairs(12);
+  pl::MatchStageOptions always;
+  always.band = pl::BandChoice::visible;
+  always.region_below_points = 1 << 20;
+  const auto matched = pl::MatchStage(geometry(), always).match(pairs.images(), kBox);
+  ASSERT_EQ(matched.size(), 1u);
+  const auto& region = matched[0].result.region;
+  ASSERT_TRUE(region.ok()) << region.message;
+  ASSERT_GE(matched[0].result.matches.size(), 10u);
+  std::vector<thermovis::match::Correspondence> points(matched[0].result.matches.begin(),
+                                                       matched[0].result.matches.begin() + 10);
+  for (int k : {1, 4, 7}) {  // 18 px instead of 12: a third nearer
+    points[static_cast<size_t>(k)].disparity_px += 6.0;
+    points[static_cast<size_t>(k)].right.x() -= 6.0;
+  }
+  const auto range = [&](pl::RangeEstimate estimate, const thermovis::match::RegionDisparity& r,
+                         const std::vector<thermovis::match::Correspondence>& p) {
+    pl::RangeStageOptions o;
+    o.estimate = estimate;
+    return pl::RangeStage(geometry(), o).range({{pl::Band::visible, "wall", kBox, p, r}});
+  };
+  const pl::RangedTarget by_region = range(pl::RangeEstimate::region, region, points);
+  const pl::RangedTarget by_points = range(pl::RangeEstimate::points, region, points);
+  const pl::RangedTarget both = range(pl::RangeEstimate::both, region, points);
+  ASSERT_TRUE(by_region.ok() && by_points.ok() && both.ok()) << both.range.message;
+  EXPECT_LT(by_points.distance_m, 0.8 * by_region.distance_m);  // the nearer group alone
+  EXPECT_NEAR(both.distance_m, by_region.distance_m, 0.02 * by_region.distance_m);
+  EXPECT_GE(both.range.points_used, 3);  // of the seven at 12 px
+  EXPECT_LE(both.range.points_used, 7);
+  // Every point a third nearer than the region: the region's range alone.
+  for (auto& c : points) {
+    c.disparity_px += 6.0;
+    c.right.x() -= 6.0;
+  }
+  const pl::RangedTarget apart = range(pl::RangeEstimate::both, region, points);
+  ASSERT_TRUE(apart.ok()) << apart.range.message;
+  EXPECT_NEAR(apart.distance_m, by_region.distance_m, 1e-6 * by_region.distance_m);
+  EXPECT_EQ(apart.range.points_used, 0);
+}
+
 TEST(MatchStage, AlignsEachBoxsWholeRegionOnEveryPair) {
   const Pairs pairs(12);
   // By default a box with 12 points or more is ranged from its points alone.

@@ -175,6 +175,22 @@ TEST(Eq34, AGroupOfAFewIsNotTrimmedBelowThree) {
   for (int i : kept) EXPECT_LT(v[static_cast<size_t>(i)], 5.1);
 }
 
+// A small box's points: seven on the person at 25 m, three matched one period of a repeated
+// texture off and so ranged at 16.6 m, a nearer group of 30 % that the nearest-group screen
+// keeps. The region's range (a hint near 25 m) keeps the person's group; a hint where no group
+// of three lies keeps nothing.
+TEST(Eq34, AHintKeepsTheGroupNearItNotANearerOne) {
+  const std::vector<double> v = {25.02, 24.91, 25.10, 16.61, 24.95,
+                                 16.65, 25.05, 16.58, 24.98, 25.07};
+  std::vector<double> windows;
+  for (double d : v) windows.push_back(0.06 * d);
+  for (int i : rg::reject_outliers_eq34(v, 1, windows)) EXPECT_LT(v[static_cast<size_t>(i)], 17.0);
+  const auto near_hint = rg::reject_outliers_eq34(v, 1, windows, 25.3);
+  ASSERT_GE(near_hint.size(), 3u);
+  for (int i : near_hint) EXPECT_GT(v[static_cast<size_t>(i)], 24.0);
+  EXPECT_TRUE(rg::reject_outliers_eq34(v, 1, windows, 40.0).empty());
+}
+
 // The bootstrap's resampler gives what Eq. 34 gives on each resample, to the bit: sets with a
 // near cluster and a far one, gross outliers, ties (the median path with no spread) and single
 // values, resampled with replacement.
