@@ -28,8 +28,13 @@ RangeStage::RangeStage(const PipelineGeometry& geometry, const RangeStageOptions
       T_reporting_ref_(geometry.T_ref_reporting.inverse()),
       options_(options) {}
 
-range::TargetRange RangeStage::range_entry(const TargetEntry& entry, double& shared_sigma_m) const {
-  const range::RangingGeometry& geometry = entry.band == Band::infrared ? infrared_ : visible_;
+const range::RangingGeometry& RangeStage::geometry_of(const TargetEntry& entry) const {
+  return entry.band == Band::infrared ? infrared_ : visible_;
+}
+
+range::TargetRange RangeStage::range_entry(const TargetEntry& entry, double& shared_sigma_m,
+                                           double hint_m) const {
+  const range::RangingGeometry& geometry = geometry_of(entry);
   range::RangeOptions options = options_.range;
   options.region_systematic_disparity_px =
       1e-3 * grid_px_per_rad_ *
@@ -47,6 +52,17 @@ range::TargetRange RangeStage::range_entry(const TargetEntry& entry, double& sha
     region = range::range_region(geometry, entry.box, entry.region, to_centre, options);
     // The whole region is where the target's points are: a group elsewhere is a mismatch.
     if (region.status == range::RangeStatus::ok) options.group_hint_m = region.distance_m;
+    if (std::isfinite(hint_m)) {
+      options.group_hint_m = hint_m;
+      const double window =
+          std::max(options.group_relative * hint_m, options.group_disparity_px * region.sigma_m /
+                                                        std::max(region.disparity_sigma_px, 1e-9));
+      if (region.status == range::RangeStatus::ok &&
+          std::abs(region.distance_m - hint_m) > 2.0 * window) {
+        region.status = range::RangeStatus::no_region;
+        region.message = "the region's range is not near the other pair's";
+      }
+    }
   }
   range::TargetRange points = range::range_target(geometry, entry.box, entry.points, options);
   if (!options_.surface && options.shape.empty())
@@ -64,6 +80,49 @@ range::TargetRange RangeStage::range_entry(const TargetEntry& entry, double& sha
   return range::combine_ranges(points, region, geometry, shared_in_pair);
 }
 
+range::TargetRange RangeStage::combine_pairs(const std::vector<TargetEntry>& entries,
+                                             range::CombinedFrom& from) const {
+  // Two pairs' independent measurements (the shape's error is one error in both), or the one
+  // pair that gave a range.
+  double shared = 0.0;
+  range::TargetRange a = range_entry(entries[0], shared);
+  range::TargetRange b = range_entry(entries[1], shared);
+  const auto ok = [](const range::TargetRange& r) {
+    return r.status == range::RangeStatus::ok && std::isfinite(r.sigma_m) && r.sigma_m > 0;
+  };
+  const auto combined = [&] { return range::combine_ranges(a, b, visible_, shared, &from); };
+  if (!ok(a) || !ok(b)) return combined();
+  // The difference of two measurements of one target: their own errors, not the shared one.
+  const double apart = (a.position_m - b.position_m).norm();
+  const double spread = std::sqrt(
+      std::max(a.sigma_m * a.sigma_m + b.sigma_m * b.sigma_m - 2 * shared * shared, 1e-12));
+  if (apart <= 3.0 * spread) return combined();
+  // Each pair grouped about the other's range (seen from its own left camera): a pair whose
+  // points also hold a group at the other's distance erred with the rest of them.
+  const auto seen_from = [&](const TargetEntry& entry, const range::TargetRange& r) {
+    return (geometry_of(entry).T_ref_left_rect.inverse() * r.position_m).norm();
+  };
+  double unused = 0.0;
+  const range::TargetRange a_at_b = range_entry(entries[0], unused, seen_from(entries[0], b));
+  const range::TargetRange b_at_a = range_entry(entries[1], unused, seen_from(entries[1], a));
+  const bool a_agrees = ok(a_at_b), b_agrees = ok(b_at_a);
+  if (a_agrees &&
+      (!b_agrees || a_at_b.points_used + b.points_used >= a.points_used + b_at_a.points_used)) {
+    a = a_at_b;
+  } else if (b_agrees) {
+    b = b_at_a;
+  }
+  range::TargetRange r = combined();
+  if (!a_agrees && !b_agrees) {
+    // Neither pair's points support the other's range: the combination's uncertainty covers
+    // both rather than claiming the precision of either.
+    const double widened = std::sqrt(r.sigma_m * r.sigma_m + 0.25 * apart * apart);
+    r.disparity_sigma_px *= widened / r.sigma_m;
+    r.sigma_m = widened;
+  }
+  return r;
+}
+
 RangedTarget RangeStage::range(const std::vector<TargetEntry>& entries) const {
   if (entries.empty() || entries.size() > 2) {
     throw std::invalid_argument("range: a target has one or two entries, not " +
@@ -74,15 +133,13 @@ RangedTarget RangeStage::range(const std::vector<TargetEntry>& entries) const {
     throw std::invalid_argument("range: a target's two entries are of one pair");
   }
   RangedTarget out;
-  double shared_sigma = 0.0;
-  out.range = range_entry(entries[0], shared_sigma);
   out.band = entries[0].band;
-  if (entries.size() == 2) {
-    // Two pairs' independent measurements (the shape's error is one error in both), or the one
-    // pair that gave a range.
+  if (entries.size() == 1) {
+    double shared_sigma = 0.0;
+    out.range = range_entry(entries[0], shared_sigma);
+  } else {
     range::CombinedFrom from = range::CombinedFrom::neither;
-    out.range = range::combine_ranges(out.range, range_entry(entries[1], shared_sigma), visible_,
-                                      shared_sigma, &from);
+    out.range = combine_pairs(entries, from);
     if (from == range::CombinedFrom::both) out.band = Band::fused;
     if (from == range::CombinedFrom::b) out.band = entries[1].band;
   }

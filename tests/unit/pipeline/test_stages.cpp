@@ -172,6 +172,48 @@ TEST(RangeStage, TheRegionChoosesAmongTheGroupsOfAFewPoints) {
   EXPECT_EQ(apart.range.points_used, 0);
 }
 
+// Two pairs that disagree: the visible pair's seven points hold four a third nearer (a texture
+// matched a period off: the nearer group keeps them) and three at the target; the infrared
+// pair's points all see the target. The visible points grouped about the infrared range give
+// the fused range; when none of them lies there, the uncertainty covers both ranges.
+TEST(RangeStage, APairWhosePointsAlsoHoldTheOtherPairsRangeGivesWay) {
+  const Pairs pairs(12);
+  const auto matched = stage(pl::BandChoice::both).match(pairs.images(), kBox);
+  ASSERT_EQ(matched.size(), 2u);
+  ASSERT_GE(matched[0].result.matches.size(), 7u);
+  const auto shifted = [](thermovis::match::Correspondence c, double by) {
+    c.disparity_px += by;
+    c.right.x() -= by;
+    return c;
+  };
+  std::vector<thermovis::match::Correspondence> visible(matched[0].result.matches.begin(),
+                                                        matched[0].result.matches.begin() + 7);
+  const pl::RangeStage ranger(geometry());
+  const pl::RangedTarget truth = ranger.range({{pl::Band::visible, "wall", kBox, visible, {}}});
+  ASSERT_TRUE(truth.ok()) << truth.range.message;
+  for (int k : {0, 2, 4, 6}) visible[static_cast<size_t>(k)] = shifted(visible[k], 6.0);
+  // The infrared points at the disparity the target's distance has on that pair's baseline.
+  std::vector<thermovis::match::Correspondence> infrared;
+  const double scale = geometry().infrared.baseline_m / geometry().visible.baseline_m;
+  for (const auto& c : matched[1].result.matches)
+    infrared.push_back(shifted(c, c.disparity_px * (scale - 1.0)));
+  const pl::TargetEntry ir{pl::Band::infrared, "wall", kBox, infrared, {}};
+  const pl::RangedTarget alone = ranger.range({{pl::Band::visible, "wall", kBox, visible, {}}});
+  ASSERT_TRUE(alone.ok()) << alone.range.message;
+  EXPECT_LT(alone.distance_m, 0.8 * truth.distance_m);  // the nearer four
+  const pl::RangedTarget fused = ranger.range({{pl::Band::visible, "wall", kBox, visible, {}}, ir});
+  ASSERT_TRUE(fused.ok()) << fused.range.message;
+  EXPECT_EQ(fused.band, pl::Band::fused);
+  EXPECT_NEAR(fused.distance_m, truth.distance_m, 0.03 * truth.distance_m);
+  // No visible point at the infrared range: both ranges within the combined uncertainty.
+  for (auto& c : visible)
+    if (c.disparity_px < 15.0) c = shifted(c, 6.0);
+  const pl::RangedTarget near = ranger.range({{pl::Band::visible, "wall", kBox, visible, {}}});
+  const pl::RangedTarget apart = ranger.range({{pl::Band::visible, "wall", kBox, visible, {}}, ir});
+  ASSERT_TRUE(near.ok() && apart.ok()) << apart.range.message;
+  EXPECT_GE(apart.range.sigma_m, 0.45 * (truth.distance_m - near.distance_m));
+}
+
 TEST(MatchStage, AlignsEachBoxsWholeRegionOnEveryPair) {
   const Pairs pairs(12);
   // By default a box with 12 points or more is ranged from its points alone.

@@ -5,7 +5,10 @@
 // (range::range_target); the distance is the target's centre's for known classes (the class's
 // shape, range::TargetShape, or a fixed surface-to-centre offset). A target measured on two
 // pairs (the match stage's `both`) has its two independent ranges combined by their
-// uncertainties (range::combine_ranges) and is reported as Band::fused.
+// uncertainties (range::combine_ranges) and is reported as Band::fused. Two pairs whose ranges
+// disagree beyond their uncertainties (one pair's few points matched a repeated texture a
+// period off) are each ranged again about the other's distance: the pair whose points also
+// hold a group there is the one that erred (see RangeStage::range).
 #include <Eigen/Core>
 #include <opencv2/core/types.hpp>
 #include <string>
@@ -76,7 +79,15 @@ class RangeStage {
   RangedTarget range(const std::vector<TargetEntry>& entries) const;
 
  private:
-  range::TargetRange range_entry(const TargetEntry& entry, double& shared_sigma_m) const;
+  // One pair's range. `hint_m` (finite): the distance from this pair's left camera the target
+  // is believed at (the other pair's range); the points are grouped about it, and a region
+  // that aligned elsewhere is left out.
+  range::TargetRange range_entry(const TargetEntry& entry, double& shared_sigma_m,
+                                 double hint_m = range::TargetRange::nan) const;
+  const range::RangingGeometry& geometry_of(const TargetEntry& entry) const;
+  // Two pairs' ranges of one target combined; `from` says which took part.
+  range::TargetRange combine_pairs(const std::vector<TargetEntry>& entries,
+                                   range::CombinedFrom& from) const;
 
   range::RangingGeometry visible_, infrared_;
   double grid_px_per_rad_;
