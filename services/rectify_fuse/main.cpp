@@ -27,6 +27,11 @@ int main(int argc, char** argv) {
                "rectify the visible pair on a second thread while the infrared pair is "
                "rectified (for machines with a spare core; on a saturated one it delays the "
                "infrared pair that detection waits for)");
+  app.add_option("--fused-rate-hz", config.fused_rate_hz,
+                 "thermovis/fused (left eye) at most this many captures a second, 0: every "
+                 "capture (with --fused-eyes both always every capture)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   app.add_deadline_option("DEADLINE QoS period");
   CLI11_PARSE(app, argc, argv);
 
@@ -46,6 +51,8 @@ int main(int argc, char** argv) {
     node.run();
     const auto stats = node.stats();
     std::cerr << "thermovis-rectify-fuse: processed " << stats.processed << ", dropped "
-              << stats.dropped << ", bad " << stats.bad << ", repeated " << stats.repeated << "\n";
+              << stats.dropped << ", bad " << stats.bad << ", repeated " << stats.repeated
+              << ", fused " << stats.fused << ", not fused under the fused rate "
+              << stats.fusion_skipped << "\n";
   });
 }

@@ -1,5 +1,6 @@
 #include "rectify_fuse_node.hpp"
 
+#include <cmath>
 #include <future>
 
 #include "thermovis/node/frame_codec.hpp"
@@ -31,6 +32,21 @@ constexpr std::int32_t kGridFrameReaders = 5;
 
 transport::TopicQos grid_qos(std::chrono::nanoseconds deadline) {
   return transport::frame_topic_qos(deadline, 2, kGridFrameReaders);
+}
+
+// Whether the fused topic is decimated (fused_rate_hz), and its DEADLINE period then.
+bool fusion_decimated(const RectifyFuseConfig& config) {
+  if (!(config.fused_rate_hz >= 0.0) || !std::isfinite(config.fused_rate_hz)) {
+    throw std::invalid_argument("fused rate must be 0 (every capture) or a positive rate, not " +
+                                std::to_string(config.fused_rate_hz));
+  }
+  return config.fused_rate_hz > 0.0 && !config.fuse_right_eye;
+}
+
+std::chrono::nanoseconds fused_deadline(const RectifyFuseConfig& config) {
+  if (!fusion_decimated(config) || config.deadline.count() == 0) return config.deadline;
+  return config.deadline +
+         std::chrono::nanoseconds(static_cast<std::int64_t>(1e9 / config.fused_rate_hz));
 }
 
 // The geometry of the configured grid, checked against what a GridStereoFrame can carry.
@@ -67,7 +83,7 @@ RectifyFuseNode::RectifyFuseNode(transport::Participant& participant, const came
                              grid_qos(config.deadline)),
       rectified_infrared_out_(participant, transport::topics::kRectifiedInfrared,
                               grid_qos(config.deadline)),
-      fused_out_(participant, transport::topics::kFused, grid_qos(config.deadline)),
+      fused_out_(participant, transport::topics::kFused, grid_qos(fused_deadline(config))),
       geometry_out_(participant, stage_.geometry()),
       health_(participant, service_name,
               [this] {
@@ -188,6 +204,16 @@ void RectifyFuseNode::fuse(const std::array<cv::Mat, 2>& rect_infrared,
     return;
   }
   fused_had_readers_ = true;
+  if (fusion_decimated(config_)) {
+    const std::int64_t since_ns = visible.capture_time_ns() - last_fused_capture_ns_;
+    // A capture time before the last one fused: the bridge restarted; fuse it.
+    if (last_fused_capture_ns_ != 0 && since_ns >= 0 &&
+        static_cast<double>(since_ns) < 0.9e9 / config_.fused_rate_hz) {
+      ++stats_.fusion_skipped;
+      return;
+    }
+    last_fused_capture_ns_ = visible.capture_time_ns();
+  }
   const std::int64_t fusion_start_ns = transport::now_ns();
   auto out_fused = fused_out_.loan();
   const cv::Size grid = grid_size();

@@ -202,7 +202,8 @@ std::map<std::string, std::string> default_vars(int domain, const std::string& p
           {"profile", profile},
           {"scene", std::filesystem::absolute(scene_path).string()},
           {"prerender", "0"},
-          {"grid_scale", "0.5"}};
+          {"grid_scale", "0.5"},
+          {"fused_rate_hz", "0"}};
 }
 
 std::string summary_json(const LatencySummary& s) {

@@ -206,8 +206,9 @@ CpuBudget cpu_budget(const thermovis::cli::PipelineSession& session,
   return b;
 }
 
-int run_bench(const Options& opt) {
+int run_bench(Options& opt) {
   thermovis::node::install_stop_handlers();
+  if (opt.view || !opt.display.browser.empty()) thermovis::cli::with_display(opt.session);
   thermovis::cli::PipelineSession session(opt.session);
   session.start();
   if (!opt.json) {
@@ -263,6 +264,7 @@ int run_bench(const Options& opt) {
     j["seconds"] = opt.seconds;
     j["prerender"] = opt.session.prerender;
     j["grid_scale"] = opt.session.grid_scale;
+    j["fused_rate_hz"] = std::isnan(opt.session.fused_rate_hz) ? 0.0 : opt.session.fused_rate_hz;
     nlohmann::json processes = nlohmann::json::object();
     for (const auto& p : cpu) {
       processes[p.service] = {

@@ -25,6 +25,7 @@ struct Options {
 
 int run_pipeline(Options& opt) {
   thermovis::node::install_stop_handlers();
+  if (opt.view) thermovis::cli::with_display(opt.session);
   PipelineSession session(opt.session);
   session.start();
   if (!opt.json) {

@@ -121,6 +121,14 @@ void add_session_options(CLI::App& app, SessionOptions& s) {
                  "rectified grid resolution relative to the visible camera's (1.0: its full grid)")
       ->capture_default_str()
       ->check(CLI::Range(0.05, 1.0));
+  app.add_option("--fused-rate-hz", s.fused_rate_hz,
+                 "thermovis/fused at most this many captures a second (0: every capture; "
+                 "default 0, or 15 with --view: what the display composes)")
+      ->check(CLI::NonNegativeNumber);
+}
+
+void with_display(SessionOptions& options) {
+  if (std::isnan(options.fused_rate_hz)) options.fused_rate_hz = kDisplayFusedRateHz;
 }
 
 PipelineSession::PipelineSession(const SessionOptions& options) : options_(options) {
@@ -133,6 +141,9 @@ PipelineSession::PipelineSession(const SessionOptions& options) : options_(optio
   std::ostringstream scale;
   scale << options.grid_scale;
   config.vars["grid_scale"] = scale.str();
+  std::ostringstream rate;
+  rate << (std::isnan(options.fused_rate_hz) ? 0.0 : options.fused_rate_hz);
+  config.vars["fused_rate_hz"] = rate.str();
   // The services find the rig through $THERMOVIS_RIG (runtime::default_rig_path).
   if (!options.rig.empty())
     setenv("THERMOVIS_RIG", std::filesystem::absolute(options.rig).c_str(), 1);

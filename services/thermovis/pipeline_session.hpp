@@ -5,6 +5,7 @@
 #include <CLI/CLI.hpp>
 #include <chrono>
 #include <cstdint>
+#include <limits>
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
@@ -37,10 +38,19 @@ struct SessionOptions {
   double latency_deadline_ms = 20.0;
   int prerender = 0;        // the bridge's pre-rendered captures (0: renders live)
   double grid_scale = 0.5;  // rectify-fuse --grid-scale (the manifest's ${grid_scale})
+  // rectify-fuse --fused-rate-hz (the manifest's ${fused_rate_hz}); NaN: not given, which is
+  // every capture (0), or kDisplayFusedRateHz once with_display() is called.
+  double fused_rate_hz = std::numeric_limits<double>::quiet_NaN();
 };
 
+// thermovis-view composes at most 15 pictures a second (its --max-fps): the fused frames the
+// display needs. 15 Hz fuses every third capture at 50 Hz (16.7 a second).
+constexpr double kDisplayFusedRateHz = 15.0;
+// A session with the live display: the fused rate, unless given, is the display's.
+void with_display(SessionOptions& options);
+
 // Adds --scene, --rig, --manifest, --domain (default $THERMOVIS_DOMAIN), --profile, --log-dir,
-// --latency-deadline-ms, --prerender and --grid-scale.
+// --latency-deadline-ms, --prerender, --grid-scale and --fused-rate-hz.
 void add_session_options(CLI::App& app, SessionOptions& options);
 
 // One range of the pipeline with the simulated target it belongs to, if any

@@ -365,14 +365,15 @@ struct RawCaptures {
   bool wait_for_rectify_fuse() {
     return visible.wait_for_readers(1, 10000ms) && infrared.wait_for_readers(1, 10000ms);
   }
-  void publish(std::uint64_t seq, cv::Size visible_size = {1920, 1080}) {
+  void publish(std::uint64_t seq, cv::Size visible_size = {1920, 1080},
+               std::int64_t capture_time_ns = 0) {
     auto ir = infrared.loan();
     cv::Mat il = tv::node::prepare(*ir, tv::node::Eye::left, {1024, 768});
     cv::Mat ir_right = tv::node::prepare(*ir, tv::node::Eye::right, {1024, 768});
     il.setTo(8000);
     ir_right.setTo(8000);
     ir->seq(seq);
-    ir->capture_time_ns(0);
+    ir->capture_time_ns(capture_time_ns);
     ir->stamps(tv::PipelineStamps{});
     auto vis = visible.loan();
     // The header says what the test wants; the pixels of a wrong size are never read.
@@ -382,7 +383,7 @@ struct RawCaptures {
     vis->width(static_cast<std::uint32_t>(visible_size.width));
     vis->height(static_cast<std::uint32_t>(visible_size.height));
     vis->seq(seq);
-    vis->capture_time_ns(0);
+    vis->capture_time_ns(capture_time_ns);
     vis->stamps(tv::PipelineStamps{});
     infrared.publish(std::move(ir));
     visible.publish(std::move(vis));
@@ -469,6 +470,49 @@ TEST(Services, RectifyFuseFusesOnlyWhileTheFusedTopicHasAReader) {
   EXPECT_TRUE(received) << rf.log();
   rf.signal(SIGTERM);
   EXPECT_EQ(rf.wait(20s), 0) << rf.log();
+}
+
+// The display's fused image at --fused-rate-hz: captures 20 ms apart at 25 Hz are fused every
+// other one, every one rectified; with both eyes fused (fused-band matching) every capture.
+TEST(Services, RectifyFuseFusesAtTheFusedRateExceptForFusedBandMatching) {
+  for (const bool both_eyes : {false, true}) {
+    Harness h(tv::test::private_domain());
+    std::vector<std::string> args = {"--fused-rate-hz", "25"};
+    if (both_eyes) args.insert(args.end(), {"--fused-eyes", "both"});
+    ChildProcess& rf = h.start("thermovis-rectify-fuse", args);
+    RawCaptures raw(h.participant());
+    tv::transport::Reader<tv::GridStereoFrame> rectified(h.participant(), topics::kRectifiedVisible,
+                                                         tv::transport::frame_topic_qos());
+    // A reader of the display's kind: no DEADLINE of its own (the decimated writer offers the
+    // pipeline's plus 1 / rate, which a reader asking for 20 ms would not match).
+    tv::transport::Reader<tv::GridStereoFrame> fused(
+        h.participant(), topics::kFused,
+        tv::transport::observer_qos(tv::transport::frame_topic_qos()));
+    ASSERT_TRUE(h.wait_health("thermovis-rectify-fuse", waiting_for_input, 120s)) << rf.log();
+    ASSERT_TRUE(raw.wait_for_rectify_fuse());
+    ASSERT_TRUE(rectified.wait_for_writers(1, 10000ms) && fused.wait_for_writers(1, 10000ms));
+    std::vector<std::uint64_t> fused_seqs;
+    const auto take_fused = [&] {
+      auto samples = fused.take();
+      for (std::size_t i = 0; i < samples.size(); ++i) fused_seqs.push_back(samples[i].seq());
+    };
+    constexpr std::int64_t kPeriodNs = 20'000'000;
+    for (std::uint64_t seq = 1; seq <= 40; ++seq) {
+      raw.publish(seq, {1920, 1080}, static_cast<std::int64_t>(seq) * kPeriodNs);
+      ASSERT_TRUE(receive<tv::GridStereoFrame>(
+          rectified, [&](const tv::GridStereoFrame& f) { return f.seq() == seq; }, 30s))
+          << rf.log();
+      fused.wait_for_data(200ms);
+      take_fused();
+    }
+    // The writer learns of the reader a few captures late; from its first fused capture on:
+    ASSERT_GE(fused_seqs.size(), 8u) << rf.log();
+    for (std::size_t i = 1; i < fused_seqs.size(); ++i)
+      EXPECT_EQ(fused_seqs[i] - fused_seqs[i - 1], both_eyes ? 1u : 2u)
+          << "after " << fused_seqs[i - 1];
+    rf.signal(SIGTERM);
+    EXPECT_EQ(rf.wait(20s), 0) << rf.log();
+  }
 }
 
 TEST(Services, AConfigurationNamingAMissingFileIsAClearError) {
