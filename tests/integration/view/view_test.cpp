@@ -104,11 +104,14 @@ TEST(View, BrowserShowsTheLiveRangingImageAndTheSimulatedTargets) {
   until = Clock::now() + 30s;
   while (Clock::now() < until && shown() < shown_before + 2) std::this_thread::sleep_for(100ms);
   const cv::Mat second = decode_png(browser->screenshot("#stream"));
-  ASSERT_FALSE(first.empty());
-  ASSERT_EQ(first.size(), second.size());
+  ASSERT_FALSE(first.empty() || second.empty());
   cv::imwrite((dir / "screenshot.png").string(), second);
-  cv::Mat difference;
-  cv::absdiff(first, second, difference);
+  // Compared at the image's own size: the element's size on the page follows the layout beside
+  // it (the status panel's text), which changed between two shots on a loaded machine.
+  cv::Mat first_scaled, second_scaled, difference;
+  cv::resize(first, first_scaled, size, 0, 0, cv::INTER_AREA);
+  cv::resize(second, second_scaled, size, 0, 0, cv::INTER_AREA);
+  cv::absdiff(first_scaled, second_scaled, difference);
   const cv::Scalar mean_difference = cv::mean(difference);
   EXPECT_GT(mean_difference[0] + mean_difference[1] + mean_difference[2], 0.1)
       << "the image did not change";
