@@ -1,5 +1,6 @@
 #include "thermovis/pipeline/range_stage.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -12,6 +13,19 @@ namespace {
 constexpr util::EnumName<RangeEstimate> kRangeEstimateNames[] = {{RangeEstimate::points, "points"},
                                                                  {RangeEstimate::region, "region"},
                                                                  {RangeEstimate::both, "both"}};
+
+// Whether two ranges of one target lie further apart than 3 sigma of their difference (their own
+// errors: the shared part is one error in both).
+bool disagree(const range::TargetRange& a, const range::TargetRange& b, double shared_sigma_m) {
+  const double apart = (a.position_m - b.position_m).norm();
+  const double spread = std::sqrt(std::max(
+      a.sigma_m * a.sigma_m + b.sigma_m * b.sigma_m - 2 * shared_sigma_m * shared_sigma_m, 1e-12));
+  return apart > 3.0 * spread;
+}
+
+bool usable(const range::TargetRange& r) {
+  return r.status == range::RangeStatus::ok && std::isfinite(r.sigma_m) && r.sigma_m > 0;
+}
 
 }  // namespace
 
@@ -77,6 +91,10 @@ range::TargetRange RangeStage::range_entry(const TargetEntry& entry, double& sha
         std::min(options.systematic_disparity_px, options.region_systematic_disparity_px) * per_px;
     shared_in_pair = std::sqrt(shared_in_pair * shared_in_pair + floor_m * floor_m);
   }
+  // Points grouped about the region's range that still range elsewhere: the region aligned
+  // partly off the target (its silhouette's mask on the background beside it), the points'
+  // own correspondences did not.
+  if (usable(points) && usable(region) && disagree(points, region, shared_in_pair)) return points;
   return range::combine_ranges(points, region, geometry, shared_in_pair);
 }
 
@@ -87,16 +105,9 @@ range::TargetRange RangeStage::combine_pairs(const std::vector<TargetEntry>& ent
   double shared = 0.0;
   range::TargetRange a = range_entry(entries[0], shared);
   range::TargetRange b = range_entry(entries[1], shared);
-  const auto ok = [](const range::TargetRange& r) {
-    return r.status == range::RangeStatus::ok && std::isfinite(r.sigma_m) && r.sigma_m > 0;
-  };
   const auto combined = [&] { return range::combine_ranges(a, b, visible_, shared, &from); };
-  if (!ok(a) || !ok(b)) return combined();
-  // The difference of two measurements of one target: their own errors, not the shared one.
+  if (!usable(a) || !usable(b) || !disagree(a, b, shared)) return combined();
   const double apart = (a.position_m - b.position_m).norm();
-  const double spread = std::sqrt(
-      std::max(a.sigma_m * a.sigma_m + b.sigma_m * b.sigma_m - 2 * shared * shared, 1e-12));
-  if (apart <= 3.0 * spread) return combined();
   // Each pair grouped about the other's range (seen from its own left camera): a pair whose
   // points also hold a group at the other's distance erred with the rest of them.
   const auto seen_from = [&](const TargetEntry& entry, const range::TargetRange& r) {
@@ -105,7 +116,7 @@ range::TargetRange RangeStage::combine_pairs(const std::vector<TargetEntry>& ent
   double unused = 0.0;
   const range::TargetRange a_at_b = range_entry(entries[0], unused, seen_from(entries[0], b));
   const range::TargetRange b_at_a = range_entry(entries[1], unused, seen_from(entries[1], a));
-  const bool a_agrees = ok(a_at_b), b_agrees = ok(b_at_a);
+  const bool a_agrees = usable(a_at_b), b_agrees = usable(b_at_a);
   if (a_agrees &&
       (!b_agrees || a_at_b.points_used + b.points_used >= a.points_used + b_at_a.points_used)) {
     a = a_at_b;

@@ -170,6 +170,19 @@ TEST(RangeStage, TheRegionChoosesAmongTheGroupsOfAFewPoints) {
   ASSERT_TRUE(apart.ok()) << apart.range.message;
   EXPECT_NEAR(apart.distance_m, by_region.distance_m, 1e-6 * by_region.distance_m);
   EXPECT_EQ(apart.range.points_used, 0);
+  // Every point 0.8 px nearer than the region (within the group screen's two windows of it, but
+  // many sigma from it: a region aligned partly off the target): the points' range alone.
+  points.assign(matched[0].result.matches.begin(), matched[0].result.matches.begin() + 10);
+  for (auto& c : points) {
+    c.disparity_px += 0.8;
+    c.right.x() -= 0.8;
+  }
+  const pl::RangedTarget points_only = range(pl::RangeEstimate::points, region, points);
+  const pl::RangedTarget off = range(pl::RangeEstimate::both, region, points);
+  ASSERT_TRUE(points_only.ok() && off.ok()) << off.range.message;
+  EXPECT_LT(off.distance_m, 0.97 * by_region.distance_m);
+  EXPECT_NEAR(off.distance_m, points_only.distance_m, 1e-9 * points_only.distance_m);
+  EXPECT_EQ(off.range.region_pixels, 0);
 }
 
 // Two pairs that disagree: the visible pair's seven points hold four a third nearer (a texture
