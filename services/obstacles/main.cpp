@@ -44,9 +44,7 @@ int main(int argc, char** argv) {
                  "how long a capture's obstacles wait for its ranges")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 1000.0));
-  app.add_deadline_option("DEADLINE QoS period of the frame topics");
   CLI11_PARSE(app, argc, argv);
-  config.deadline = app.deadline();
   config.obstacles.visible = band != "infrared";
   config.obstacles.infrared = band != "visible";
   config.obstacles.mounting.pitch_rad = pitch_deg * M_PI / 180.0;

@@ -108,11 +108,15 @@ ObstacleArray to_message(const pipeline::ObstacleReport& report, const ob::Obsta
   return out;
 }
 
+// The frames are read as an observer's, without a DEADLINE of their own: this service is beside
+// the target path (SCHED_IDLE in the shipped manifest), takes the newest capture when it is
+// behind, and nothing waits for it. A requested deadline made its starved reader count misses of
+// frames that came on time (the writers' offered deadlines count the late ones).
 struct ObstaclesNode::BandInput {
   BandInput(transport::Participant& participant, const char* topic, ob::PairBand band_,
-            const std::string& service, std::chrono::nanoseconds deadline)
+            const std::string& service)
       : band(band_),
-        reader(participant, topic, transport::frame_topic_qos(deadline, 2, 2)),
+        reader(participant, topic, transport::observer_qos(transport::frame_topic_qos({}, 2, 2))),
         sequence(service, std::string(topic) + " frame") {}
   ob::PairBand band;
   transport::Reader<GridStereoFrame> reader;
@@ -136,11 +140,11 @@ ObstaclesNode::ObstaclesNode(transport::Participant& participant, const Obstacle
       ranges_(kRangesKept) {
   if (config.obstacles.visible) {
     visible_ = std::make_unique<BandInput>(participant, transport::topics::kRectifiedVisible,
-                                           ob::PairBand::visible, service_name, config.deadline);
+                                           ob::PairBand::visible, service_name);
   }
   if (config.obstacles.infrared) {
     infrared_ = std::make_unique<BandInput>(participant, transport::topics::kRectifiedInfrared,
-                                            ob::PairBand::infrared, service_name, config.deadline);
+                                            ob::PairBand::infrared, service_name);
   }
   if (!visible_ && !infrared_) throw std::invalid_argument("no pair to search for obstacles");
   if (config.with_targets) {

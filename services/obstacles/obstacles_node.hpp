@@ -31,9 +31,8 @@ namespace thermovis::obstacles_service {
 
 struct ObstaclesConfig {
   pipeline::ObstacleStageOptions obstacles;
-  std::chrono::nanoseconds deadline{30'000'000};  // frame topics' DEADLINE
-  std::chrono::milliseconds range_wait{15};       // a capture waits this long for its ranges
-  bool with_targets = true;                       // merge the ranges of thermovis/ranges
+  std::chrono::milliseconds range_wait{15};  // a capture waits this long for its ranges
+  bool with_targets = true;                  // merge the ranges of thermovis/ranges
   // Each pair's ground searched about its last capture's (obstacle::GroundTracker), the
   // mounting's prior when that fails: a vehicle that pitches. Off: about the prior every time.
   bool track_ground = false;

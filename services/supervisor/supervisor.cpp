@@ -143,7 +143,9 @@ void Supervisor::reset_statistics() {
   late_.clear();
   first_seq_ = last_seq_ = 0;
   base_bad_inputs_ = base_deadline_misses_ = base_bad_timing_ = 0;
+  base_deadline_misses_by_endpoint_.clear();
   const LatencySummary now = summary();
+  base_deadline_misses_by_endpoint_ = now.deadline_misses_by_endpoint;
   base_bad_inputs_ = now.bad_inputs;
   base_bad_timing_ = now.bad_timing;
   base_deadline_misses_ = now.deadline_misses;
@@ -168,7 +170,16 @@ LatencySummary Supervisor::summary() const {
   for (const auto& [key, h] : health_) {
     s.bad_inputs += h.errors();
     for (const auto& topic : h.topics()) {
-      s.deadline_misses += topic.requested_deadline_missed() + topic.offered_deadline_missed();
+      const std::uint64_t misses =
+          topic.requested_deadline_missed() + topic.offered_deadline_missed();
+      s.deadline_misses += misses;
+      if (misses == 0) continue;
+      const std::string endpoint = h.service().to_string() + " " + topic.topic().to_string();
+      auto base = base_deadline_misses_by_endpoint_.find(endpoint);
+      const std::uint64_t since =
+          misses -
+          std::min(misses, base == base_deadline_misses_by_endpoint_.end() ? 0 : base->second);
+      if (since > 0) s.deadline_misses_by_endpoint[endpoint] = since;
     }
   }
   for (const auto& status : group_.status()) {
@@ -220,6 +231,7 @@ std::string summary_json(const LatencySummary& s) {
                         {"over_deadline", s.over_deadline},
                         {"dropped", s.dropped},
                         {"deadline_misses", s.deadline_misses},
+                        {"deadline_misses_by_endpoint", s.deadline_misses_by_endpoint},
                         {"bad_inputs", s.bad_inputs},
                         {"restarts", s.restarts},
                         {"restarted", restarted},
@@ -238,6 +250,12 @@ std::string summary_text(const LatencySummary& s, double deadline_ms) {
       << "\n";
   for (const auto& r : s.restarted)
     out << "  restarted " << r.service << " " << r.restarts << "x, last: " << r.last_error << "\n";
+  if (!s.deadline_misses_by_endpoint.empty()) {
+    out << "  DEADLINE QoS misses by service and topic:";
+    for (const auto& [endpoint, misses] : s.deadline_misses_by_endpoint)
+      out << " " << endpoint << " " << misses << ";";
+    out << "\n";
+  }
   for (const auto& st : s.stages) {
     out << "  stage " << st.stage << ": p50 " << st.p50_ms << " ms, p99 " << st.p99_ms
         << " ms, max " << st.max_ms << " ms\n";

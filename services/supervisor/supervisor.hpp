@@ -38,8 +38,10 @@ struct LatencySummary {
   double p50_ms = 0.0, p99_ms = 0.0, max_ms = 0.0;
   std::uint64_t over_deadline = 0;    // frames whose capture-to-output latency exceeded it
   std::uint64_t deadline_misses = 0;  // DEADLINE QoS misses over every service's topics
-  std::uint64_t bad_inputs = 0;       // errors reported in health, and bad_timing
-  std::uint64_t bad_timing = 0;       // thermovis/timing samples rejected (node::check_timing)
+  // The same per "service topic" (a late sample counts at its writer and at each reader).
+  std::map<std::string, std::uint64_t> deadline_misses_by_endpoint;
+  std::uint64_t bad_inputs = 0;  // errors reported in health, and bad_timing
+  std::uint64_t bad_timing = 0;  // thermovis/timing samples rejected (node::check_timing)
   std::uint64_t restarts = 0;
   std::uint64_t first_seq = 0, last_seq = 0;  // output frames seen
   std::uint64_t dropped =
@@ -111,6 +113,7 @@ class Supervisor {
   std::uint64_t bad_timing_ = 0;  // timing samples rejected, kept out of the latencies
   // Cumulative counts at the last reset_statistics().
   std::uint64_t base_bad_inputs_ = 0, base_deadline_misses_ = 0, base_bad_timing_ = 0;
+  std::map<std::string, std::uint64_t> base_deadline_misses_by_endpoint_;
   std::map<std::string, int> base_restarts_;  // by manifest name
 };
 

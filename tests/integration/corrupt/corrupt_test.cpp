@@ -525,4 +525,58 @@ TEST(Corrupt, SupervisorCountsBadTimingAndKeepsItOutOfTheLatencies) {
   std::filesystem::remove_all(dir);
 }
 
+// DEADLINE QoS misses come from the services' health, counted per service and topic (a late
+// sample counts at its writer and at each reader) and since the last reset_statistics().
+TEST(Corrupt, SupervisorCountsDeadlineMissesPerServiceAndTopic) {
+  const int domain = tv::test::private_domain();
+  const auto dir = tv::test::temp_dir("deadline_misses");
+  auto supervised = tv::test::loopback_participant(domain, "supervisor");
+  tv::supervisor::SupervisorConfig config;
+  config.log_dir = dir / "logs";
+  tv::supervisor::Supervisor supervisor(*supervised, tv::process::Manifest{"health", {}}, config);
+  auto participant = tv::test::loopback_participant(domain, "health-test");
+  tv::transport::Writer<tv::Health> health(*participant, topics::kHealth,
+                                           tv::transport::state_topic_qos());
+  ASSERT_TRUE(health.wait_for_readers(1, 20000ms));
+  const auto publish = [&](std::uint32_t visible_misses, std::uint32_t infrared_misses) {
+    tv::Health h;
+    h.service("thermovis-fake");
+    h.state(tv::HEALTH_OK);
+    h.time_ns(tv::transport::now_ns());
+    tv::TopicHealth visible, infrared, ranges;
+    visible.topic(topics::kRectifiedVisible);
+    visible.requested_deadline_missed(visible_misses);
+    infrared.topic(topics::kRectifiedInfrared);
+    infrared.offered_deadline_missed(infrared_misses);
+    ranges.topic(topics::kRanges);
+    h.topics({visible, infrared, ranges});
+    health.write(h);
+  };
+  const auto summary_when = [&](auto done) {
+    tv::supervisor::LatencySummary s;
+    for (const auto until = std::chrono::steady_clock::now() + 20s;
+         std::chrono::steady_clock::now() < until && !done(s);) {
+      supervisor.step();
+      s = supervisor.summary();
+      std::this_thread::sleep_for(10ms);
+    }
+    return s;
+  };
+  publish(2, 1);
+  auto s = summary_when([](const auto& x) { return x.deadline_misses == 3; });
+  EXPECT_EQ(s.deadline_misses, 3u);
+  const std::string visible = std::string("thermovis-fake ") + topics::kRectifiedVisible;
+  const std::string infrared = std::string("thermovis-fake ") + topics::kRectifiedInfrared;
+  EXPECT_EQ(s.deadline_misses_by_endpoint,
+            (std::map<std::string, std::uint64_t>{{visible, 2}, {infrared, 1}}));
+  EXPECT_NE(tv::supervisor::summary_text(s, 20.0).find(visible + " 2;"), std::string::npos)
+      << tv::supervisor::summary_text(s, 20.0);
+  supervisor.reset_statistics();
+  publish(5, 1);
+  s = summary_when([](const auto& x) { return x.deadline_misses == 3; });
+  EXPECT_EQ(s.deadline_misses, 3u);
+  EXPECT_EQ(s.deadline_misses_by_endpoint, (std::map<std::string, std::uint64_t>{{visible, 3}}));
+  std::filesystem::remove_all(dir);
+}
+
 }  // namespace
