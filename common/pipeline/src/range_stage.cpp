@@ -95,7 +95,9 @@ range::TargetRange RangeStage::range_entry(const TargetEntry& entry, double& sha
   // partly off the target (its silhouette's mask on the background beside it), the points'
   // own correspondences did not.
   if (usable(points) && usable(region) && disagree(points, region, shared_in_pair)) return points;
-  return range::combine_ranges(points, region, geometry, shared_in_pair);
+  range::TargetRange combined = range::combine_ranges(points, region, geometry, shared_in_pair);
+  combined.used = points.used;  // one pair's points: their indices still mean its matches
+  return combined;
 }
 
 range::TargetRange RangeStage::combine_pairs(const std::vector<TargetEntry>& entries,

@@ -161,6 +161,10 @@ TEST(RangeStage, TheRegionChoosesAmongTheGroupsOfAFewPoints) {
   EXPECT_NEAR(both.distance_m, by_region.distance_m, 0.02 * by_region.distance_m);
   EXPECT_GE(both.range.points_used, 3);  // of the seven at 12 px
   EXPECT_LE(both.range.points_used, 7);
+  // The points kept are named (bench ranging --points traces them), all of the seven.
+  ASSERT_EQ(both.range.used.size(), static_cast<std::size_t>(both.range.points_used));
+  for (int k : both.range.used)
+    EXPECT_NEAR(points.at(static_cast<std::size_t>(k)).disparity_px, 12.0, 0.5);
   // Every point a third nearer than the region: the region's range alone.
   for (auto& c : points) {
     c.disparity_px += 6.0;
