@@ -156,7 +156,7 @@ void evaluate_points(const sim::SimulatedRig& simulated, const sim::TargetTruth&
   Eigen::Vector2d centre_px;
   double centre_disparity = 0;
   const Eigen::Vector3d centre_rect = T.inverse() * (T_ref_vl * truth.position_m);
-  if (!rg::project_point(g.grid, g.baseline_m, centre_rect, centre_px, centre_disparity)) return;
+  if (!rg::project_point(g, centre_rect, centre_px, centre_disparity)) return;
   // The same matches with the true disparity wherever the pixel's ray meets the target.
   std::vector<thermovis::match::Correspondence> corrected = r.matches.front().result.matches;
   for (int k : r.ranged.range.used) {
@@ -173,7 +173,7 @@ void evaluate_points(const sim::SimulatedRig& simulated, const sim::TargetTruth&
     ++cell.on_target;
     Eigen::Vector2d px;
     double d_true = 0;
-    if (!rg::project_point(g.grid, g.baseline_m, hit.distance_m * ray, px, d_true)) continue;
+    if (!rg::project_point(g, hit.distance_m * ray, px, d_true)) continue;
     const double e = c.disparity_px - d_true;
     cell.disparity_error_sum += e;
     cell.disparity_error_sum2 += e * e;
@@ -292,8 +292,7 @@ int run_bench_ranging(const Options& opt) {
                                                                             : pl::Band::visible);
           Eigen::Vector2d px;
           double true_disparity = 0;
-          rg::project_point(g.grid, g.baseline_m,
-                            g.T_ref_left_rect.inverse() * (T_ref_vl * truth.position_m), px,
+          rg::project_point(g, g.T_ref_left_rect.inverse() * (T_ref_vl * truth.position_m), px,
                             true_disparity);
           std::ostringstream why;
           why << "box " << box.width << "x" << box.height << " px at (" << box.x << ", " << box.y

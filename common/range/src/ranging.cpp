@@ -138,6 +138,17 @@ bool project_point(const camera::RectifiedCamera& grid, double baseline_m, const
   return std::isfinite(disparity_px);
 }
 
+bool project_point(const RangingGeometry& geometry, const Eigen::Vector3d& p,
+                   Eigen::Vector2d& left_px, double& disparity_px) {
+  if (geometry.right_centre_m.isZero())
+    return project_point(geometry.grid, geometry.baseline_m, p, left_px, disparity_px);
+  Eigen::Vector2d right_px;
+  if (!(p.z() > 0.0) || !geometry.grid.project(p, left_px)) return false;
+  if (!geometry.grid.project(p - geometry.right_centre_m, right_px)) return false;
+  disparity_px = left_px.x() - right_px.x();
+  return std::isfinite(disparity_px);
+}
+
 std::string status_name(RangeStatus status) {
   return util::name_of(kStatusNames, status, "unknown");
 }

@@ -104,6 +104,13 @@ TEST(Triangulate, ExactWhenTheRightEyeIsOffTheGridsAxis) {
   g.right_centre_m = right;
   EXPECT_NEAR(rg::triangulate(g, px, d).distance_m, rg::triangulate(grid, right, px, d).distance_m,
               1e-12);
+  // And projects back where that triangulation ranges (the on-axis projection does not).
+  Eigen::Vector2d off_px;
+  double off_d = 0;
+  ASSERT_TRUE(rg::project_point(g, p, off_px, off_d));
+  EXPECT_NEAR((off_px - px).norm(), 0.0, 1e-9);
+  EXPECT_NEAR(rg::triangulate(g, off_px, off_d).distance_m, p.norm(), 1e-8 * p.norm());
+  EXPECT_GT(std::abs(off_d - d), 0.05);
   // Nothing in front: no point.
   EXPECT_FALSE(rg::triangulate(grid, right, px, -1.0).valid);
   EXPECT_FALSE(rg::triangulate(grid, Eigen::Vector3d::Zero(), px, d).valid);

@@ -97,6 +97,10 @@ double surface_to_centre_m(const std::string& target_class);
 bool project_point(const camera::RectifiedCamera& grid, double baseline_m,
                    const Eigen::Vector3d& position_left_rect, Eigen::Vector2d& left_px,
                    double& disparity_px);
+// The same for the geometry's pair, its right eye where right_centre_m says (off the grid's axis
+// included): the inverse of triangulate(geometry, ...).
+bool project_point(const RangingGeometry& geometry, const Eigen::Vector3d& position_left_rect,
+                   Eigen::Vector2d& left_px, double& disparity_px);
 
 enum class RangeStatus {
   ok,
