@@ -723,8 +723,8 @@ TargetRange combine_ranges(const TargetRange& a, const TargetRange& b,
   r.depth_m = local.z();
   Eigen::Vector2d px;
   double disparity = 0;
-  if (project_point(report.grid, report.baseline_m, local, px, disparity)) {
-    const PointTriangulation t = triangulate(report.grid, report.baseline_m, px, disparity);
+  if (project_point(report, local, px, disparity)) {
+    const PointTriangulation t = triangulate(report, px, disparity);
     r.disparity_px = disparity;
     r.disparity_sigma_px =
         t.valid && t.distance_per_px > 0 ? r.sigma_m / t.distance_per_px : TargetRange::nan;
