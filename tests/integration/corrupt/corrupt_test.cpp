@@ -462,16 +462,32 @@ TEST(Corrupt, MatchNamesBadFramesAndDetectionsAndServesTheNextGoodOnes) {
 // before its capture, whose latency is an hour, whose stamps are out of order or whose stage took
 // longer than the frame is counted as a bad input and kept out of p50/p99, the late frames and
 // the per-stage figures; the good samples around it are measured.
+// A supervisor without services (only its readers are under test) on a private domain, and a
+// participant to write to it.
+struct SupervisorAlone {
+  explicit SupervisorAlone(const std::string& name)
+      : domain(tv::test::private_domain()),
+        dir(tv::test::temp_dir(name)),
+        supervised(tv::test::loopback_participant(domain, "supervisor")),
+        supervisor(*supervised, tv::process::Manifest{name, {}}, config(dir)),
+        participant(tv::test::loopback_participant(domain, "corrupt-test")) {}
+  ~SupervisorAlone() { std::filesystem::remove_all(dir); }
+  static tv::supervisor::SupervisorConfig config(const std::filesystem::path& dir) {
+    tv::supervisor::SupervisorConfig c;
+    c.log_dir = dir / "logs";
+    return c;
+  }
+  int domain;
+  std::filesystem::path dir;
+  std::unique_ptr<tv::transport::Participant> supervised;
+  tv::supervisor::Supervisor supervisor;
+  std::unique_ptr<tv::transport::Participant> participant;
+};
+
 TEST(Corrupt, SupervisorCountsBadTimingAndKeepsItOutOfTheLatencies) {
-  const int domain = tv::test::private_domain();
-  const auto dir = tv::test::temp_dir("corrupt_timing");
-  auto supervised = tv::test::loopback_participant(domain, "supervisor");
-  tv::supervisor::SupervisorConfig config;
-  config.log_dir = dir / "logs";
-  // No services: only the supervisor's readers are under test.
-  tv::supervisor::Supervisor supervisor(*supervised, tv::process::Manifest{"timing", {}}, config);
-  auto participant = tv::test::loopback_participant(domain, "corrupt-test");
-  tv::transport::Writer<tv::FrameTiming> timing(*participant, topics::kTiming,
+  SupervisorAlone alone("corrupt_timing");
+  tv::supervisor::Supervisor& supervisor = alone.supervisor;
+  tv::transport::Writer<tv::FrameTiming> timing(*alone.participant, topics::kTiming,
                                                 tv::transport::event_topic_qos(64));
   ASSERT_TRUE(timing.wait_for_readers(1, 20000ms));
 
@@ -522,20 +538,14 @@ TEST(Corrupt, SupervisorCountsBadTimingAndKeepsItOutOfTheLatencies) {
   EXPECT_TRUE(supervisor.late_frames().empty());
   ASSERT_EQ(s.stages.size(), 5u);
   for (const auto& stage : s.stages) EXPECT_DOUBLE_EQ(stage.max_ms, 2.0) << stage.stage;
-  std::filesystem::remove_all(dir);
 }
 
 // DEADLINE QoS misses come from the services' health, counted per service and topic (a late
 // sample counts at its writer and at each reader) and since the last reset_statistics().
 TEST(Corrupt, SupervisorCountsDeadlineMissesPerServiceAndTopic) {
-  const int domain = tv::test::private_domain();
-  const auto dir = tv::test::temp_dir("deadline_misses");
-  auto supervised = tv::test::loopback_participant(domain, "supervisor");
-  tv::supervisor::SupervisorConfig config;
-  config.log_dir = dir / "logs";
-  tv::supervisor::Supervisor supervisor(*supervised, tv::process::Manifest{"health", {}}, config);
-  auto participant = tv::test::loopback_participant(domain, "health-test");
-  tv::transport::Writer<tv::Health> health(*participant, topics::kHealth,
+  SupervisorAlone alone("deadline_misses");
+  tv::supervisor::Supervisor& supervisor = alone.supervisor;
+  tv::transport::Writer<tv::Health> health(*alone.participant, topics::kHealth,
                                            tv::transport::state_topic_qos());
   ASSERT_TRUE(health.wait_for_readers(1, 20000ms));
   const auto publish = [&](std::uint32_t visible_misses, std::uint32_t infrared_misses) {
@@ -576,7 +586,6 @@ TEST(Corrupt, SupervisorCountsDeadlineMissesPerServiceAndTopic) {
   s = summary_when([](const auto& x) { return x.deadline_misses == 3; });
   EXPECT_EQ(s.deadline_misses, 3u);
   EXPECT_EQ(s.deadline_misses_by_endpoint, (std::map<std::string, std::uint64_t>{{visible, 3}}));
-  std::filesystem::remove_all(dir);
 }
 
 }  // namespace
