@@ -34,16 +34,17 @@ transport::TopicQos grid_qos(std::chrono::nanoseconds deadline) {
   return transport::frame_topic_qos(deadline, 2, kGridFrameReaders);
 }
 
-// Whether the fused topic is decimated (fused_rate_hz), and its DEADLINE period then.
+// Whether the fused topic is decimated (fused_rate_hz).
 bool fusion_decimated(const RectifyFuseConfig& config) {
+  return config.fused_rate_hz > 0.0 && !config.fuse_right_eye;
+}
+
+// The fused writer's DEADLINE period (the node's construction checks the rate here).
+std::chrono::nanoseconds fused_deadline(const RectifyFuseConfig& config) {
   if (!(config.fused_rate_hz >= 0.0) || !std::isfinite(config.fused_rate_hz)) {
     throw std::invalid_argument("fused rate must be 0 (every capture) or a positive rate, not " +
                                 std::to_string(config.fused_rate_hz));
   }
-  return config.fused_rate_hz > 0.0 && !config.fuse_right_eye;
-}
-
-std::chrono::nanoseconds fused_deadline(const RectifyFuseConfig& config) {
   if (!fusion_decimated(config) || config.deadline.count() == 0) return config.deadline;
   return config.deadline +
          std::chrono::nanoseconds(static_cast<std::int64_t>(1e9 / config.fused_rate_hz));

@@ -62,17 +62,19 @@ range::TargetRange RangeStage::range_entry(const TargetEntry& entry, double& sha
   if (options_.estimate == RangeEstimate::region)
     return range::range_region(geometry, entry.box, entry.region, to_centre, options);
   range::TargetRange region;
+  // The region's metres per pixel of disparity (0: no region).
+  double region_per_px = 0.0;
   if (options_.estimate == RangeEstimate::both) {
     region = range::range_region(geometry, entry.box, entry.region, to_centre, options);
+    if (region.status == range::RangeStatus::ok && region.disparity_sigma_px > 0)
+      region_per_px = region.sigma_m / region.disparity_sigma_px;
     // The whole region is where the target's points are: a group elsewhere is a mismatch.
     if (region.status == range::RangeStatus::ok) options.group_hint_m = region.distance_m;
     if (std::isfinite(hint_m)) {
       options.group_hint_m = hint_m;
-      const double window =
-          std::max(options.group_relative * hint_m, options.group_disparity_px * region.sigma_m /
-                                                        std::max(region.disparity_sigma_px, 1e-9));
       if (region.status == range::RangeStatus::ok &&
-          std::abs(region.distance_m - hint_m) > 2.0 * window) {
+          std::abs(region.distance_m - hint_m) >
+              2.0 * range::group_window_m(options, hint_m, region_per_px)) {
         region.status = range::RangeStatus::no_region;
         region.message = "the region's range is not near the other pair's";
       }
@@ -85,10 +87,10 @@ range::TargetRange RangeStage::range_entry(const TargetEntry& entry, double& sha
   // The points and the region see the same pixels: their shared error is at least the
   // systematic floor and the shape's, kept whole by the combination.
   double shared_in_pair = shared_sigma_m;
-  if (region.status == range::RangeStatus::ok && region.disparity_sigma_px > 0) {
-    const double per_px = region.sigma_m / region.disparity_sigma_px;
+  if (region.status == range::RangeStatus::ok && region_per_px > 0) {
     const double floor_m =
-        std::min(options.systematic_disparity_px, options.region_systematic_disparity_px) * per_px;
+        std::min(options.systematic_disparity_px, options.region_systematic_disparity_px) *
+        region_per_px;
     shared_in_pair = std::sqrt(shared_in_pair * shared_in_pair + floor_m * floor_m);
   }
   // Points grouped about the region's range that still range elsewhere: the region aligned

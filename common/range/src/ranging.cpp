@@ -6,6 +6,7 @@
 #include <numeric>
 #include <random>
 #include <sstream>
+#include <tuple>
 
 #include "thermovis/util/enum_names.hpp"
 
@@ -138,6 +139,10 @@ bool project_point(const camera::RectifiedCamera& grid, double baseline_m, const
   return std::isfinite(disparity_px);
 }
 
+double group_window_m(const RangeOptions& options, double distance_m, double m_per_px) {
+  return std::max(options.group_relative * distance_m, options.group_disparity_px * m_per_px);
+}
+
 bool project_point(const RangingGeometry& geometry, const Eigen::Vector3d& p,
                    Eigen::Vector2d& left_px, double& disparity_px) {
   if (geometry.right_centre_m.isZero())
@@ -204,19 +209,26 @@ std::vector<int> nearest_dense_group(const std::vector<double>& values,
     const auto hi = std::partition_point(lo, sorted.end(), [&](double v) { return v - x <= w; });
     return static_cast<size_t>(hi - lo);
   };
-  std::vector<int> kept;
-  size_t mode = 0;
-  if (std::isfinite(hint)) {
-    // The densest value near the hint is the group's mode (the nearest of equals).
-    size_t most = 0;
+  // The value of most neighbours among those `candidate` accepts (the nearest of equals), and
+  // that count; every value is its own neighbour, so a candidate has at least one.
+  const auto densest = [&](auto candidate) {
+    size_t mode = 0, most = 0;
     for (size_t i = 0; i < values.size(); ++i) {
-      if (std::abs(values[i] - hint) > 2.0 * windows[i]) continue;
+      if (!candidate(i)) continue;
       const size_t n = neighbours(i);
       if (n > most || (n == most && values[i] < values[mode])) {
         most = n;
         mode = i;
       }
     }
+    return std::pair{mode, most};
+  };
+  std::vector<int> kept;
+  size_t mode = 0;
+  if (std::isfinite(hint)) {
+    size_t most = 0;
+    std::tie(mode, most) =
+        densest([&](size_t i) { return std::abs(values[i] - hint) <= 2.0 * windows[i]; });
     if (most < 3) return kept;
   } else {
     int anchor = -1;
@@ -226,16 +238,8 @@ std::vector<int> nearest_dense_group(const std::vector<double>& values,
     }
     if (anchor < 0) return kept;
     const double from = values[static_cast<size_t>(anchor)];
-    mode = static_cast<size_t>(anchor);
-    size_t most = 0;
-    for (size_t i = 0; i < values.size(); ++i) {
-      if (values[i] < from || values[i] > from + windows[static_cast<size_t>(anchor)]) continue;
-      const size_t n = neighbours(i);
-      if (n > most || (n == most && values[i] < values[mode])) {
-        most = n;
-        mode = i;
-      }
-    }
+    const double to = from + windows[static_cast<size_t>(anchor)];
+    mode = densest([&](size_t i) { return values[i] >= from && values[i] <= to; }).first;
   }
   const double centre = values[mode];
   const double reach = 2.0 * windows[mode];
@@ -548,8 +552,7 @@ TargetRange range_target(const RangingGeometry& geometry, const cv::Rect& box,
   std::vector<double> windows;
   if (options.group_relative > 0 || options.group_disparity_px > 0) {
     for (size_t i = 0; i < distances.size(); ++i) {
-      windows.push_back(
-          std::max(options.group_relative * distances[i], options.group_disparity_px * per_px[i]));
+      windows.push_back(group_window_m(options, distances[i], per_px[i]));
     }
   }
   const double hint = windows.empty() ? TargetRange::nan : options.group_hint_m;

@@ -185,6 +185,11 @@ struct RangeOptions {
   double region_systematic_disparity_px = 0.05;
 };
 
+// How far a point of a target at `distance_m` may range from another of it (reject_outliers_eq34's
+// window): the larger of options.group_relative of the distance and options.group_disparity_px
+// of disparity, `m_per_px` metres each.
+double group_window_m(const RangeOptions& options, double distance_m, double m_per_px);
+
 struct TargetRange {
   RangeStatus status = RangeStatus::no_matches;
   std::string message;  // why there is no distance (empty when ok)
