@@ -20,6 +20,7 @@ struct Options {
   std::string out;
   dt::TrainingOptions training;
   bool mirror = false;
+  std::string frames = "train";
 };
 
 int run_detect_train(const Options& opt) {
@@ -29,7 +30,7 @@ int run_detect_train(const Options& opt) {
     const dt::AnnotatedSet set = dt::load_annotated_set(dir);
     for (const auto& e : set.errors) std::cerr << "detect-train: " << e << "\n";
     for (const auto& frame : set.frames) {
-      if (!dt::is_training_frame(frame.name)) continue;
+      if (dt::is_training_frame(frame.name) != (opt.frames == "train")) continue;
       dt::FrameImages images;
       try {
         images = dt::load_frame_images(frame, false);
@@ -55,12 +56,16 @@ int run_detect_train(const Options& opt) {
       ++frames;
     }
   }
-  int positives = 0;
-  for (const auto& s : samples) positives += s.label;
+  std::size_t positives = 0, about = 0;
+  for (const auto& s : samples) {
+    positives += static_cast<std::size_t>(s.label);
+    about += static_cast<std::size_t>(s.label == 0 && s.person_iou >= opt.training.fit_min_iou);
+  }
   std::cout << "training frames " << frames << ", persons " << persons
             << ", persons with a candidate at IoU >= " << opt.training.positive_iou << ": "
-            << reachable << "; samples " << positives << " person, "
-            << samples.size() - static_cast<std::size_t>(positives) << " not\n";
+            << reachable << "; samples " << positives << " person, " << about
+            << " about a person (IoU >= " << opt.training.fit_min_iou << "), "
+            << samples.size() - positives - about << " background\n";
   dt::train_infrared_classifier(samples, opt.training, opt.out);
   std::cout << "wrote " << opt.out << " (" << std::filesystem::file_size(opt.out) << " bytes)\n";
   return 0;
@@ -86,10 +91,24 @@ THERMOVIS_COMMAND(
       app.add_option("--max-negatives", opt->training.max_negatives_per_frame,
                      "background samples per frame, thinned evenly (0 = all)")
           ->capture_default_str();
+      app.add_option("--frames", opt->frames,
+                     "train (the shipped model's) or eval: the other half, to measure a model "
+                     "trained on it on the train frames (detect-eval --frames train), a second "
+                     "fold")
+          ->check(CLI::IsMember({"train", "eval"}))
+          ->capture_default_str();
       app.add_flag("--mirror", opt->mirror, "also train on every frame mirrored left to right");
       app.add_option("--weak-count", opt->training.weak_count, "boosted trees")
           ->capture_default_str();
       app.add_option("--max-depth", opt->training.max_depth, "depth of each tree")
+          ->capture_default_str();
+      app.add_option("--fit-weak-count", opt->training.fit_weak_count,
+                     "boosted trees of the fit model (a box that fits a person against parts of "
+                     "one and groups)")
+          ->capture_default_str();
+      app.add_option("--fit-min-iou", opt->training.fit_min_iou,
+                     "the fit model's other class: candidates overlapping a person this much "
+                     "that are not one")
           ->capture_default_str();
       return [opt] { return run_detect_train(*opt); };
     });

@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/ml.hpp>
 #include <opencv2/objdetect.hpp>
@@ -320,25 +321,41 @@ cv::Mat candidate_features(const cv::Mat& ir8, const std::vector<Candidate>& can
 }
 
 struct InfraredClassifier::Impl {
-  cv::Ptr<cv::ml::Boost> boost;
+  cv::Ptr<cv::ml::Boost> person, fit;
 };
+
+namespace {
+
+constexpr const char* kPersonNode = "person";
+constexpr const char* kFitNode = "fit";
+
+cv::Ptr<cv::ml::Boost> load_boost(const std::filesystem::path& model, const char* node) {
+  cv::Ptr<cv::ml::Boost> boost;
+  try {
+    boost = cv::Algorithm::load<cv::ml::Boost>(model.string(), node);
+  } catch (const cv::Exception& e) {
+    throw std::runtime_error(model.string() + ": not an OpenCV boosted-trees model: " + e.what());
+  }
+  if (boost.empty() || !boost->isTrained()) {
+    throw std::runtime_error(model.string() + ": holds no trained boosted-trees model \"" + node +
+                             "\" (retrain with detect-train)");
+  }
+  if (boost->getVarCount() != feature_count()) {
+    throw std::runtime_error(model.string() + ": \"" + node + "\" made for " +
+                             std::to_string(boost->getVarCount()) + " features, these are " +
+                             std::to_string(feature_count()) + " (retrain with detect-train)");
+  }
+  return boost;
+}
+
+}  // namespace
 
 InfraredClassifier::InfraredClassifier(const std::filesystem::path& model)
     : impl_(std::make_unique<Impl>()) {
   if (!std::filesystem::is_regular_file(model))
     throw std::runtime_error(model.string() + ": no model file");
-  try {
-    impl_->boost = cv::Algorithm::load<cv::ml::Boost>(model.string());
-  } catch (const cv::Exception& e) {
-    throw std::runtime_error(model.string() + ": not an OpenCV boosted-trees model: " + e.what());
-  }
-  if (impl_->boost.empty() || !impl_->boost->isTrained())
-    throw std::runtime_error(model.string() + ": holds no trained boosted-trees model");
-  if (impl_->boost->getVarCount() != feature_count()) {
-    throw std::runtime_error(model.string() + ": made for " +
-                             std::to_string(impl_->boost->getVarCount()) + " features, these are " +
-                             std::to_string(feature_count()) + " (retrain with detect-train)");
-  }
+  impl_->person = load_boost(model, kPersonNode);
+  impl_->fit = load_boost(model, kFitNode);
 }
 
 InfraredClassifier::~InfraredClassifier() = default;
@@ -346,12 +363,18 @@ InfraredClassifier::InfraredClassifier(InfraredClassifier&&) noexcept = default;
 InfraredClassifier& InfraredClassifier::operator=(InfraredClassifier&&) noexcept = default;
 
 std::vector<double> InfraredClassifier::score(const cv::Mat& features) const {
+  constexpr int kVotes = static_cast<int>(cv::ml::DTrees::PREDICT_SUM) |
+                         static_cast<int>(cv::ml::StatModel::RAW_OUTPUT);
   std::vector<double> out;
   out.reserve(static_cast<std::size_t>(features.rows));
   for (int i = 0; i < features.rows; ++i) {
-    out.push_back(impl_->boost->predict(features.row(i), cv::noArray(),
-                                        static_cast<int>(cv::ml::DTrees::PREDICT_SUM) |
-                                            static_cast<int>(cv::ml::StatModel::RAW_OUTPUT)));
+    const cv::Mat row = features.row(i);
+    // The person model's vote plus the fit model's, which ranks the box that fits a person
+    // above its parts and groups (measured on both halves of the annotated sets, against the
+    // fit vote only for boxes the person model takes and against the product of the two
+    // probabilities: the plain sum ranks best).
+    out.push_back(impl_->person->predict(row, cv::noArray(), kVotes) +
+                  impl_->fit->predict(row, cv::noArray(), kVotes));
   }
   return out;
 }
@@ -372,20 +395,20 @@ int collect_training_samples(const cv::Mat& infrared, const std::vector<cv::Rect
       if (o >= options.positive_iou) found[k] = true;
       best = std::max(best, o);
     }
-    for (const cv::Rect& d : dont_care)
-      best = std::max(best, intersection_over_union(candidates[i].box, d));
-    int label = -1;
-    if (best >= options.positive_iou) {
-      label = 1;
-      for (const cv::Rect& d : dont_care) {
-        if (intersection_over_union(candidates[i].box, d) >= options.positive_iou) label = -1;
-      }
-    } else if (best < options.negative_iou) {
-      label = 0;
+    bool at_dont_care = false;
+    for (const cv::Rect& d : dont_care) {
+      const double o = intersection_over_union(candidates[i].box, d);
+      if (o >= options.positive_iou || (best < options.positive_iou && o >= options.negative_iou))
+        at_dont_care = true;
     }
-    if (label < 0) continue;
-    (label == 1 ? samples : negatives)
-        .push_back({features.row(static_cast<int>(i)).clone(), label});
+    if (at_dont_care) continue;
+    TrainingSample sample{features.row(static_cast<int>(i)).clone(),
+                          best >= options.positive_iou ? 1 : 0, best};
+    // Background alone is thinned; candidates about a person are all kept (the fit model's).
+    if (sample.label == 0 && best < options.fit_min_iou)
+      negatives.push_back(std::move(sample));
+    else
+      samples.push_back(std::move(sample));
   }
   const std::size_t keep =
       options.max_negatives_per_frame > 0
@@ -395,26 +418,57 @@ int collect_training_samples(const cv::Mat& infrared, const std::vector<cv::Rect
   return static_cast<int>(std::count(found.begin(), found.end(), true));
 }
 
-void train_infrared_classifier(const std::vector<TrainingSample>& samples,
-                               const TrainingOptions& options, const std::filesystem::path& model) {
+namespace {
+
+// Boosted trees trained on the samples `use` accepts, a sample's class its label.
+cv::Ptr<cv::ml::Boost> train_boost(const std::vector<TrainingSample>& samples, int weak_count,
+                                   int max_depth, const char* what,
+                                   const std::function<bool(const TrainingSample&)>& use) {
+  std::vector<int> rows;
   int positives = 0;
-  cv::Mat data(static_cast<int>(samples.size()), feature_count(), CV_32F);
-  cv::Mat responses(static_cast<int>(samples.size()), 1, CV_32S);
   for (std::size_t i = 0; i < samples.size(); ++i) {
-    samples[i].features.copyTo(data.row(static_cast<int>(i)));
-    responses.at<int>(static_cast<int>(i)) = samples[i].label;
+    if (!use(samples[i])) continue;
+    rows.push_back(static_cast<int>(i));
     positives += samples[i].label;
   }
-  if (positives == 0 || positives == static_cast<int>(samples.size()))
-    throw std::invalid_argument("train_infrared_classifier: needs samples of both classes");
+  if (positives == 0 || positives == static_cast<int>(rows.size())) {
+    throw std::invalid_argument(std::string("train_infrared_classifier: the ") + what +
+                                " model needs samples of both classes");
+  }
+  cv::Mat data(static_cast<int>(rows.size()), feature_count(), CV_32F);
+  cv::Mat responses(static_cast<int>(rows.size()), 1, CV_32S);
+  for (std::size_t k = 0; k < rows.size(); ++k) {
+    const TrainingSample& s = samples[static_cast<std::size_t>(rows[k])];
+    s.features.copyTo(data.row(static_cast<int>(k)));
+    responses.at<int>(static_cast<int>(k)) = s.label;
+  }
   auto boost = cv::ml::Boost::create();
   boost->setBoostType(cv::ml::Boost::REAL);
-  boost->setWeakCount(options.weak_count);
-  boost->setMaxDepth(options.max_depth);
+  boost->setWeakCount(weak_count);
+  boost->setMaxDepth(max_depth);
   boost->setWeightTrimRate(0.95);
   boost->setUseSurrogates(false);
   boost->train(cv::ml::TrainData::create(data, cv::ml::ROW_SAMPLE, responses));
-  boost->save(model.string());
+  return boost;
+}
+
+}  // namespace
+
+void train_infrared_classifier(const std::vector<TrainingSample>& samples,
+                               const TrainingOptions& options, const std::filesystem::path& model) {
+  const auto person = train_boost(
+      samples, options.weak_count, options.max_depth, kPersonNode,
+      [&](const TrainingSample& s) { return s.label == 1 || s.person_iou < options.negative_iou; });
+  const auto fit = train_boost(
+      samples, options.fit_weak_count, options.max_depth, kFitNode,
+      [&](const TrainingSample& s) { return s.label == 1 || s.person_iou >= options.fit_min_iou; });
+  cv::FileStorage fs(model.string(), cv::FileStorage::WRITE);
+  if (!fs.isOpened()) throw std::runtime_error(model.string() + ": cannot be written");
+  fs << kPersonNode << "{";
+  person->write(fs);
+  fs << "}" << kFitNode << "{";
+  fit->write(fs);
+  fs << "}";
 }
 
 }  // namespace thermovis::detect

@@ -11,8 +11,12 @@
 //     so the description does not depend on the person's size in pixels) and by scale-free
 //     shape and contrast features (aspect, fill, contrast to the ring around the box, to the
 //     threshold and to the enclosing component);
-//  4. boosted trees (OpenCV ml, Real AdaBoost) score them; boxes above min_score are kept and
-//     non-maximum suppression keeps the best of overlapping ones.
+//  4. boosted trees (OpenCV ml, Real AdaBoost) score them: a person model (people against the
+//     background) plus a fit model (a box that fits a person against the part of a person or
+//     the group of people that a candidate around them also is: a torso's box, two people in
+//     one box), so that of the candidates about one person the one that fits ranks first;
+//     boxes above min_score are kept and non-maximum suppression keeps the best of overlapping
+//     ones.
 #include <filesystem>
 #include <memory>
 #include <opencv2/core/mat.hpp>
@@ -65,7 +69,8 @@ std::vector<Candidate> infrared_candidates(const cv::Mat& ir8,
 // One CV_32F row of features per candidate (same order).
 cv::Mat candidate_features(const cv::Mat& ir8, const std::vector<Candidate>& candidates);
 
-// The trained scorer. The model file is OpenCV's ml::Boost in FileStorage form (.yml or .yml.gz).
+// The trained scorer. The model file (.yml or .yml.gz) holds two OpenCV ml::Boost models in
+// FileStorage form, nodes "person" and "fit".
 class InfraredClassifier {
  public:
   // Throws std::runtime_error naming the file when it cannot be read or holds no trained model
@@ -75,7 +80,7 @@ class InfraredClassifier {
   InfraredClassifier(InfraredClassifier&&) noexcept;
   InfraredClassifier& operator=(InfraredClassifier&&) noexcept;
 
-  // Sum of the weak trees' votes per row of candidate_features (> 0: person).
+  // Sum of both models' weak trees' votes per row of candidate_features (> 0: person).
   std::vector<double> score(const cv::Mat& features) const;
 
  private:
@@ -84,8 +89,9 @@ class InfraredClassifier {
 };
 
 struct TrainingSample {
-  cv::Mat features;  // one row
-  int label = 0;     // 1 person, 0 not
+  cv::Mat features;       // one row
+  int label = 0;          // 1 person (person_iou >= positive_iou), 0 not
+  double person_iou = 0;  // the candidate's largest IoU with a person box
 };
 
 struct TrainingOptions {
@@ -96,9 +102,13 @@ struct TrainingOptions {
   int max_negatives_per_frame = 0;
   int weak_count = 150;
   int max_depth = 2;
+  // The fit model: people against candidates that overlap one (IoU at least fit_min_iou) but
+  // are not one (parts, groups; those between the two IoUs above included).
+  double fit_min_iou = 0.1;
+  int fit_weak_count = 100;
 };
 
-// The labelled candidates of one annotated frame (candidates between the two IoUs are left out).
+// The labelled candidates of one annotated frame (those at a don't-care box are left out).
 // Appends to samples; returns how many person boxes have a candidate >= positive_iou (the
 // recall the classifier can reach at best).
 int collect_training_samples(const cv::Mat& infrared, const std::vector<cv::Rect>& persons,
@@ -106,8 +116,8 @@ int collect_training_samples(const cv::Mat& infrared, const std::vector<cv::Rect
                              const CandidateOptions& candidate_options,
                              const TrainingOptions& options, std::vector<TrainingSample>& samples);
 
-// Trains the boosted trees and writes them to model. Throws std::invalid_argument when there
-// are no samples of one class.
+// Trains both models and writes them to model. Throws std::invalid_argument when there are no
+// samples of one class of a model.
 void train_infrared_classifier(const std::vector<TrainingSample>& samples,
                                const TrainingOptions& options, const std::filesystem::path& model);
 
