@@ -331,20 +331,18 @@ cv::Mat candidate_features(const cv::Mat& ir8, const std::vector<Candidate>& can
       patch_sum = cv::sum(patch)[0];
     }
     hog.compute(window, descriptor);
-    const cv::Mat box_pixels = ir8(c.box);
-    const BoxStats stats = box_stats(box_pixels);
-    const double mean_box = stats.mean, sd_box = stats.sd, max_box = stats.max;
+    const BoxStats box = box_stats(ir8(c.box));
     const double ring_area = static_cast<double>(outer.area()) - c.box.area();
-    const double ring_mean = ring_area > 0 ? (patch_sum - sums.sum(c.box)) / ring_area : mean_box;
+    const double ring_mean = ring_area > 0 ? (patch_sum - sums.sum(c.box)) / ring_area : box.mean;
     float* row = features.ptr<float>(static_cast<int>(i));
     row[0] = static_cast<float>(std::log(static_cast<double>(c.box.height) / c.box.width));
     row[1] = static_cast<float>(c.area_px / c.box.area());
-    row[2] = static_cast<float>((mean_box - ring_mean) / f.sigma);
-    row[3] = static_cast<float>((max_box - c.threshold) / f.sigma);
-    row[4] = static_cast<float>((mean_box - f.median) / f.sigma);
+    row[2] = static_cast<float>((box.mean - ring_mean) / f.sigma);
+    row[3] = static_cast<float>((box.max - c.threshold) / f.sigma);
+    row[4] = static_cast<float>((box.mean - f.median) / f.sigma);
     row[5] = static_cast<float>(c.level);
     row[6] = static_cast<float>(c.area_px / std::max(1.0, c.parent_area_px));
-    row[7] = static_cast<float>(sd_box / f.sigma);
+    row[7] = static_cast<float>(box.sd / f.sigma);
     row[8] = static_cast<float>(c.growth);
     row[9] = c.split ? 1.0F : 0.0F;
     std::copy(descriptor.begin(), descriptor.end(), row + kShapeFeatures);

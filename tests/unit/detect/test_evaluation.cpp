@@ -2,8 +2,6 @@
 // its errors, the train/eval split, and the PersonDetector on real frames and bad input.
 #include <gtest/gtest.h>
 
-#include <unistd.h>
-
 #include <fstream>
 #include <iostream>
 #include <opencv2/imgcodecs.hpp>
@@ -316,11 +314,9 @@ TEST(InfraredClassifier, TrainsBothModelsAndTheBoxThatFitsAPersonRanksFirst) {
   EXPECT_GT(people, 0);
   EXPECT_GT(about, 0);
   EXPECT_GT(background, 0);
-  const auto model = std::filesystem::temp_directory_path() /
-                     ("thermovis_ir_model_" + std::to_string(::getpid()) + ".yml.gz");
+  const auto model = thermovis::test::temp_dir("ir_model") / "person_ir.yml.gz";
   dt::train_infrared_classifier(samples, t, model);
   const dt::InfraredClassifier classifier(model);
-  std::filesystem::remove(model);
   int fitted = 0, judged = 0;
   for (unsigned seed = 101; seed <= 104; ++seed) {
     const cv::Mat ir = synthetic_people(seed, persons);
@@ -356,8 +352,7 @@ TEST(InfraredClassifier, AModelFileWithoutTheFitModelIsRefused) {
   auto boost = cv::ml::Boost::create();
   boost->setWeakCount(3);
   boost->train(cv::ml::TrainData::create(data, cv::ml::ROW_SAMPLE, labels));
-  const auto model = std::filesystem::temp_directory_path() /
-                     ("thermovis_old_model_" + std::to_string(::getpid()) + ".yml");
+  const auto model = thermovis::test::temp_dir("old_model") / "person_ir.yml";
   boost->save(model.string());
   try {
     const dt::InfraredClassifier classifier(model);
@@ -368,5 +363,4 @@ TEST(InfraredClassifier, AModelFileWithoutTheFitModelIsRefused) {
     EXPECT_NE(what.find("person"), std::string::npos) << what;
     EXPECT_NE(what.find("retrain"), std::string::npos) << what;
   }
-  std::filesystem::remove(model);
 }
