@@ -115,7 +115,8 @@ void DetectNode::take_fused(std::chrono::milliseconds wait, std::uint64_t from_s
 DetectionArray DetectNode::detect(const GridStereoFrame& infrared) {
   const std::int64_t start_ns = transport::now_ns();
   const cv::Mat left =
-      node::view(infrared, node::Eye::left, stage_.geometry().grid_size(), stage_.id());
+      node::view(infrared, node::Eye::left, stage_.geometry().image_size(pipeline::Band::infrared),
+                 stage_.id());
   cv::Mat fused;
   if (fused_in_) {
     // rectify-fuse publishes the fused frame of a capture after its rectified pairs (once the

@@ -80,7 +80,8 @@ void MatchNode::take_frames(BandInput& input) {
                                " carries the left eye only (thermovis-rectify-fuse fuses the "
                                "right eye with --fused-eyes both)");
       }
-      const cv::Size grid = stage_.geometry().grid_size();
+      // The band's frames: the grid, the infrared pair's reduced by its reduction.
+      const cv::Size grid = stage_.geometry().image_size(input.band);
       Pair pair;
       pair.left =
           pipeline::MatchStage::stage_grey(node::view(frame, node::Eye::left, grid, stage_.id()));

@@ -180,7 +180,9 @@ void ObstaclesNode::take_frames(BandInput& input) {
         tracks_.reset();
       }
       const std::int64_t start_ns = transport::now_ns();
-      const cv::Size grid = stage_.geometry().grid_size();
+      const cv::Size grid = stage_.geometry().image_size(input.band == ob::PairBand::infrared
+                                                             ? pipeline::Band::infrared
+                                                             : pipeline::Band::visible);
       const cv::Mat left = node::view(frame, node::Eye::left, grid, stage_.id());
       const cv::Mat right = node::view(frame, node::Eye::right, grid, stage_.id());
       if ((input.band == ob::PairBand::infrared) != (left.type() == CV_16UC1)) {

@@ -174,9 +174,10 @@ void RectifyFuseNode::process(const VisibleStereoFrame& visible,
   };
   std::future<void> visible_done;
   if (config_.parallel_bands) visible_done = std::async(std::launch::async, rectify_visible);
+  const cv::Size infrared_size = stage_.geometry().image_size(pipeline::Band::infrared);
   for (const Eye eye : {Eye::left, Eye::right}) {
     cv::Mat& out = rect_infrared[eye == Eye::left ? 0 : 1];
-    out = node::prepare(*out_infrared, eye, grid, CV_16UC1);
+    out = node::prepare(*out_infrared, eye, infrared_size, CV_16UC1);
     stage_.rectify_infrared(eye, node::view(infrared, eye), out);
   }
   out_infrared->eyes(EYES_BOTH);

@@ -31,22 +31,25 @@ class OneOpenCvThread {
   int threads_;
 };
 
-// CPU ms of the floor for one capture's images (a range of cv::Mat) on a grid of `grid` px,
+// CPU ms of the floor for one capture's images (a range of cv::Mat, the simulator's slots:
+// visible left and right, infrared left and right) on the grids of `grid` px (visible) and
+// `infrared_grid` px (the infrared pair's images: the grid reduced by its infrared reduction),
 // the best of `repeats` runs (the first allocates the outputs; the machine is shared).
 // OpenCV 4.6's INTER_AREA is vectorised only for whole-number ratios; onto a grid of another
 // size it runs a generic weighted sum, so `interpolation` INTER_LINEAR gives the tighter floor
 // (the bench prints both).
 template <class Images>
-double capture_floor_cpu_ms(const Images& images, cv::Size grid, int repeats = 5,
-                            int interpolation = cv::INTER_AREA) {
+double capture_floor_cpu_ms(const Images& images, cv::Size grid, cv::Size infrared_grid,
+                            int repeats = 5, int interpolation = cv::INTER_AREA) {
   const OneOpenCvThread one_thread;
   cv::Mat copy, resized;
   double best = 1e300;
   for (int k = 0; k < repeats; ++k) {
     const double start = thread_cpu_ms();
+    int slot = 0;
     for (const cv::Mat& image : images) {
       image.copyTo(copy);
-      cv::resize(image, resized, grid, 0, 0, interpolation);
+      cv::resize(image, resized, slot++ < 2 ? grid : infrared_grid, 0, 0, interpolation);
     }
     best = std::min(best, thread_cpu_ms() - start);
   }

@@ -209,7 +209,7 @@ int run_bench_obstacles(const Options& opt) {
   if (opt.band != "infrared")
     pairs.push_back({ob::PairBand::visible, g.ranging(pl::Band::visible)});
   if (opt.band != "visible") {
-    pairs.push_back({ob::PairBand::infrared, g.ranging(pl::Band::infrared)});
+    pairs.push_back({ob::PairBand::infrared, g.ranging(pl::Band::infrared), g.infrared_reduction});
   }
   const ob::ObstacleDetector detector(g.grid, pairs, g.T_ref_reporting, prior, obstacle_options);
   const Eigen::Vector3d down = ob::plane_in_frame(ob::prior_plane(prior), g.T_ref_reporting).normal;

@@ -199,9 +199,10 @@ CpuBudget cpu_budget(const thermovis::cli::PipelineSession& session,
     b.grid = geometry->grid_size();
     thermovis::sim::FrameSet frames = session.simulated().allocate();
     session.simulated().render(0, frames);
-    b.floor_ms = thermovis::cli::capture_floor_cpu_ms(frames.images, b.grid);
+    const cv::Size infrared = geometry->image_size(thermovis::pipeline::Band::infrared);
+    b.floor_ms = thermovis::cli::capture_floor_cpu_ms(frames.images, b.grid, infrared);
     b.linear_floor_ms =
-        thermovis::cli::capture_floor_cpu_ms(frames.images, b.grid, 5, cv::INTER_LINEAR);
+        thermovis::cli::capture_floor_cpu_ms(frames.images, b.grid, infrared, 5, cv::INTER_LINEAR);
   }
   return b;
 }

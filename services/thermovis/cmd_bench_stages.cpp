@@ -141,8 +141,9 @@ int run_bench_stages(const Options& opt) {
       t.within_sigma += std::abs(error) <= r.range.sigma_m;
       ++t.ranges;
     }
-    // The floor: one copy of every image of the capture, and each resized to the grid.
-    const double floor_ms = thermovis::cli::capture_floor_cpu_ms(frames.images, grid, 1);
+    // The floor: one copy of every image of the capture, and each resized to its band's grid.
+    const double floor_ms = thermovis::cli::capture_floor_cpu_ms(
+        frames.images, grid, pipeline.geometry().image_size(pl::Band::infrared), 1);
     if (!measured) continue;
     double sum = 0;
     for (const auto& name : stage_names) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <opencv2/imgproc.hpp>
 
 #include "thermovis/node/frame_codec.hpp"
 #include "thermovis/node/service.hpp"
@@ -257,7 +258,14 @@ void ViewNode::compose(const Image& fused, const RangeResult* ranges, const std:
     const Image* visible = find(visible_, fused.seq);
     const Image* infrared = find(infrared_, fused.seq);
     cv::Mat infrared_8;
-    if (infrared != nullptr) infrared_8 = agc_.process(infrared->left);
+    if (infrared != nullptr) {
+      infrared_8 = agc_.process(infrared->left);
+      // A reduced infrared frame (thermovis/geometry's infrared_reduction) shown on the grid,
+      // where the targets' boxes are.
+      if (infrared_8.size() != fused.left.size() && !fused.left.empty()) {
+        cv::resize(infrared_8, infrared_8, fused.left.size(), 0, 0, cv::INTER_LINEAR);
+      }
+    }
     if (visible != nullptr && hub_.wanted(View::visible))
       encode(View::visible, display::compose(visible->left, targets, status, overlay));
     if (infrared != nullptr && hub_.wanted(View::infrared))

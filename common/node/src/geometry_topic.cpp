@@ -65,6 +65,7 @@ GridGeometry to_message(const pipeline::PipelineGeometry& g) {
   m.infrared(pair_message(g.infrared));
   m.ref_from_reporting(pose_of(g.T_ref_reporting));
   m.registration_distance_m(g.registration_distance_m);
+  m.infrared_reduction(static_cast<std::uint32_t>(g.infrared_reduction));
   return m;
 }
 
@@ -88,6 +89,8 @@ pipeline::PipelineGeometry from_message(const GridGeometry& m) {
   g.infrared = pair_of(m.infrared());
   g.T_ref_reporting = isometry_of(m.ref_from_reporting());
   g.registration_distance_m = m.registration_distance_m();
+  // Bounded before the cast; validate says what is wrong with it.
+  g.infrared_reduction = static_cast<int>(std::min<std::uint32_t>(m.infrared_reduction(), 1000));
   try {
     pipeline::validate(g, {GRID_WIDTH, GRID_HEIGHT});
   } catch (const std::invalid_argument& e) {

@@ -113,6 +113,12 @@ ObstacleDetector::ObstacleDetector(const camera::RectifiedIntrinsics& grid,
       throw std::invalid_argument("obstacles: the " + band_name(setup.band) +
                                   " pair's baseline is not > 0");
     }
+    const int s = setup.image_reduction;
+    if (s < 1 || k % s != 0) {
+      throw std::invalid_argument("obstacles: the " + band_name(setup.band) +
+                                  " pair's image reduction " + std::to_string(s) +
+                                  " does not divide the reduction " + std::to_string(k));
+    }
     Pair p(setup);
     p.prior = plane_in_frame(rig_ground, setup.geometry.T_ref_left_rect);
     p.T_reporting_rect = T_ref_reporting.inverse() * setup.geometry.T_ref_left_rect;
@@ -124,7 +130,9 @@ ObstacleDetector::ObstacleDetector(const camera::RectifiedIntrinsics& grid,
     const double bottom =
         grid.cy + grid.f * (beta_horizon + std::atan2(p.prior.height_m, options.min_distance_m)) +
         (options.foot_rows + 2) * k;
-    const int last_row = std::clamp(static_cast<int>(std::ceil(bottom)), 16 * k, grid.height);
+    int last_row = std::clamp(static_cast<int>(std::ceil(bottom)), 16 * k, grid.height);
+    // Whole pixels of a reduced image: the rows kept start and end on its rows.
+    last_row -= last_row % s;
     const int first_row = std::clamp(static_cast<int>(std::floor(top)), 0, last_row - 16 * k);
     const int kept = (last_row - first_row) / k;
     p.first_row = last_row - kept * k;
@@ -189,15 +197,17 @@ int ObstacleDetector::first_grid_row(PairBand band) const { return pair(band).fi
 void ObstacleDetector::reduce_pair(PairBand band, const cv::Mat& left, const cv::Mat& right,
                                    cv::Mat& left8, cv::Mat& right8) const {
   const Pair& p = pair(band);
-  if (left.size() != cv::Size(grid_.width, grid_.height) || right.size() != left.size()) {
+  const int s = p.setup.image_reduction, k = options_.reduction / s;
+  const cv::Size image(grid_.width / s, grid_.height / s);
+  if (left.size() != image || right.size() != left.size()) {
     throw std::invalid_argument("obstacles: the " + band_name(band) + " images are not " +
-                                std::to_string(grid_.width) + "x" + std::to_string(grid_.height) +
-                                " (the grid)");
+                                std::to_string(image.width) + "x" + std::to_string(image.height) +
+                                (s == 1 ? " (the grid)" : " (the grid reduced by its reduction)"));
   }
   const auto& r = p.reduced.grid.intrinsics();
-  const cv::Rect crop(0, p.first_row, r.width * options_.reduction, r.height * options_.reduction);
+  const cv::Rect crop(0, p.first_row / s, r.width * k, r.height * k);
   cv::Mat l, rr;
-  if (options_.reduction == 1) {
+  if (k == 1) {
     l = left(crop).clone();
     rr = right(crop).clone();
   } else {

@@ -8,27 +8,12 @@
 
 namespace thermovis::pipeline {
 
-namespace {
-
-// The grid reduced by k: its first k * (size / k) columns and rows box-filtered, k x k pixels to
-// one, so pixel centres move as in camera::scaled but the size is the whole blocks'.
-camera::RectifiedIntrinsics reduced(const camera::RectifiedIntrinsics& grid, int k) {
-  camera::RectifiedIntrinsics out = grid;
-  out.width = grid.width / k;
-  out.height = grid.height / k;
-  out.f = grid.f / k;
-  out.cx = (grid.cx + 0.5) / k - 0.5;
-  out.cy = (grid.cy + 0.5) / k - 0.5;
-  return out;
-}
-
-}  // namespace
-
 DetectStage::DetectStage(const PipelineGeometry& geometry, const DetectOptions& options)
-    : grid_(geometry.grid),
+    : grid_(geometry.image_grid(Band::infrared)),
       options_(options),
-      reduction_(grid_reduction(geometry.grid, options.reduced_px_per_rad)),
-      reduced_grid_(reduced(geometry.grid, reduction_)) {
+      reduction_(grid_reduction(grid_.intrinsics(), options.reduced_px_per_rad)),
+      reduced_grid_(reduce_grid(grid_.intrinsics(), reduction_)),
+      to_grid_(reduction_ * geometry.infrared_reduction) {
   if (!options_.infrared_model.empty()) {
     detect::PersonDetectorOptions o;
     o.band = detect::Band::infrared;
@@ -47,7 +32,7 @@ std::vector<detect::Detection> DetectStage::detect(const cv::Mat& infrared,
   }
   if (infrared.size() != grid_.image_size()) {
     throw std::invalid_argument("detect: infrared image is " + std::to_string(infrared.cols) + "x" +
-                                std::to_string(infrared.rows) + ", the grid " +
+                                std::to_string(infrared.rows) + ", the infrared pair's grid " +
                                 std::to_string(grid_.image_size().width) + "x" +
                                 std::to_string(grid_.image_size().height));
   }
@@ -62,9 +47,9 @@ std::vector<detect::Detection> DetectStage::detect(const cv::Mat& infrared,
   std::vector<detect::Detection> found =
       classifier_ ? classifier_->detect(image, cv::Mat(), &grid)
                   : detect::detect_warm_blobs(image, grid, options_.blobs);
-  if (k > 1) {
+  if (const int g = to_grid_; g > 1) {
     for (detect::Detection& d : found)
-      d.box = cv::Rect(d.box.x * k, d.box.y * k, d.box.width * k, d.box.height * k);
+      d.box = cv::Rect(d.box.x * g, d.box.y * g, d.box.width * g, d.box.height * g);
   }
   if (options_.hog && !fused.empty()) {
     auto people = detect::detect_people_hog(fused, options_.hog_options);

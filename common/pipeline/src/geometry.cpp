@@ -27,6 +27,35 @@ range::RangingGeometry PipelineGeometry::ranging(Band band) const {
   return g;
 }
 
+camera::RectifiedIntrinsics PipelineGeometry::image_grid(Band band) const {
+  return reduce_grid(grid, reduction(band));
+}
+
+cv::Size PipelineGeometry::image_size(Band band) const {
+  const int k = reduction(band);
+  return {grid.width / k, grid.height / k};
+}
+
+camera::RectifiedIntrinsics reduce_grid(const camera::RectifiedIntrinsics& grid, int k) {
+  if (k < 1) throw std::invalid_argument("reduce_grid: k must be >= 1");
+  if (k == 1) return grid;
+  camera::RectifiedIntrinsics out = grid;
+  out.width = grid.width / k;
+  out.height = grid.height / k;
+  out.f = grid.f / k;
+  out.cx = (grid.cx + 0.5) / k - 0.5;
+  out.cy = (grid.cy + 0.5) / k - 0.5;
+  return out;
+}
+
+cv::Rect reduce_box(const cv::Rect& box, int k) {
+  if (k == 1 || box.empty()) return box;
+  const auto floor_div = [k](int v) { return v >= 0 ? v / k : -((-v + k - 1) / k); };
+  const int x0 = floor_div(box.x), y0 = floor_div(box.y);
+  const int x1 = -floor_div(-(box.x + box.width)), y1 = -floor_div(-(box.y + box.height));
+  return {x0, y0, x1 - x0, y1 - y0};
+}
+
 namespace {
 
 class Digest {
@@ -83,6 +112,9 @@ std::uint32_t PipelineGeometry::id() const {
   }
   d.add(T_ref_reporting);
   d.add(registration_distance_m);
+  // Added only when the infrared is reduced, so that a geometry on one grid keeps the digest it
+  // had before infrared images could be reduced (recordings name it).
+  if (infrared_reduction != 1) d.add(infrared_reduction);
   return d.value();
 }
 
@@ -116,6 +148,19 @@ PipelineGeometry make_geometry(const camera::Rig& rig, const GridOptions& option
   }
   out.T_ref_reporting = rig.camera(rig.visible.left).T_ref_cam;
   out.registration_distance_m = options.registration_distance_m;
+  if (options.infrared_reduction < 0) {
+    throw std::invalid_argument("infrared_reduction must be >= 0 (0: from the infrared cameras)");
+  }
+  out.infrared_reduction =
+      options.infrared_reduction > 0
+          ? options.infrared_reduction
+          : grid_reduction(out.grid,
+                           rectify::default_pair_grid(rig, rig.infrared, options.projection).f);
+  const int k = out.infrared_reduction;
+  if (k > 8 || out.grid.width / k < 16 || out.grid.height / k < 16) {
+    throw std::invalid_argument("infrared reduction " + std::to_string(k) +
+                                " is over 8 or leaves an image under 16 px");
+  }
   return out;
 }
 
@@ -149,6 +194,12 @@ void validate(const PipelineGeometry& g, cv::Size max_size) {
     }
   }
   check_finite(g.T_ref_reporting, "geometry: reporting frame");
+  if (g.infrared_reduction < 1 || g.infrared_reduction > 8 || i.width / g.infrared_reduction < 16 ||
+      i.height / g.infrared_reduction < 16) {
+    throw std::invalid_argument("geometry: infrared reduction " +
+                                std::to_string(g.infrared_reduction) +
+                                " is outside 1-8 or leaves an image under 16 px");
+  }
   if (!std::isfinite(g.registration_distance_m)) {
     throw std::invalid_argument("geometry: registration distance is not finite");
   }

@@ -83,6 +83,39 @@ double median_disparity(const match::MatchResult& result) {
   return *mid;
 }
 
+// A result measured on the infrared image reduced by k, in grid pixels: positions through
+// grid_coordinate, disparities and row offsets times k (the row slope is a ratio), the box the
+// grid's.
+void result_to_grid(match::MatchResult& result, int k, const cv::Rect& grid_box) {
+  const auto to_grid = [k](Eigen::Vector2d& p) {
+    p = Eigen::Vector2d(grid_coordinate(p.x(), k), grid_coordinate(p.y(), k));
+  };
+  for (match::Correspondence& c : result.matches) {
+    to_grid(c.left);
+    to_grid(c.right);
+    c.disparity_px *= k;
+  }
+  result.box = grid_box;
+  result.row_offset_px *= k;
+  match::RegionDisparity& q = result.region;
+  q.disparity_px *= k;
+  q.sigma_px *= k;
+  q.row_offset_px *= k;
+  if (q.anchor.allFinite()) to_grid(q.anchor);
+}
+
+// A silhouette found on the infrared image reduced by k (the mask of `reduced_box`) as the mask
+// of `box` on the grid (nearest reduced pixel).
+cv::Mat silhouette_on_grid(const cv::Mat& reduced_mask, const cv::Rect& reduced_box,
+                           const cv::Rect& box, int k) {
+  if (reduced_mask.empty()) return {};
+  cv::Mat up;
+  cv::resize(reduced_mask, up, cv::Size(reduced_mask.cols * k, reduced_mask.rows * k), 0, 0,
+             cv::INTER_NEAREST);
+  return up(cv::Rect(box.x - reduced_box.x * k, box.y - reduced_box.y * k, box.width, box.height))
+      .clone();
+}
+
 }  // namespace
 
 BandChoice parse_band_choice(const std::string& name) {
@@ -98,6 +131,8 @@ std::pair<double, double> typical_height_m(const std::string& label) {
 
 MatchStage::MatchStage(const PipelineGeometry& geometry, const MatchStageOptions& options)
     : grid_size_(geometry.grid_size()),
+      infrared_size_(geometry.image_size(Band::infrared)),
+      infrared_reduction_(geometry.infrared_reduction),
       baseline_visible_m_(geometry.ranging(Band::visible).baseline_m),
       baseline_infrared_m_(geometry.ranging(Band::infrared).baseline_m),
       options_(options) {
@@ -121,6 +156,12 @@ MatchStage::MatchStage(const PipelineGeometry& geometry, const MatchStageOptions
   options_.match.max_disparity_px = max_disparity(geometry, options.min_distance_m);
   options_.region_options.min_disparity_px = options_.match.min_disparity_px;
   options_.region_options.max_disparity_px = options_.match.max_disparity_px;
+  // The infrared pair is searched on its own image: the same range in its pixels.
+  infrared_match_ = options_.match;
+  infrared_match_.max_disparity_px /= infrared_reduction_;
+  infrared_region_ = options_.region_options;
+  infrared_region_.max_disparity_px = infrared_match_.max_disparity_px;
+  infrared_region_.row_offset_per_disparity = infrared_rows_per_disparity_;
 }
 
 bool MatchStage::aligns(const match::MatchResult& result) const {
@@ -137,8 +178,7 @@ void MatchStage::align(Band band, const cv::Mat& left8, const cv::Mat& right8, c
                             " point correspondences";
     return;
   }
-  match::RegionOptions o = options_.region_options;
-  if (band == Band::infrared) o.row_offset_per_disparity = infrared_rows_per_disparity_;
+  match::RegionOptions o = band == Band::infrared ? infrared_region_ : options_.region_options;
   const double start = median_disparity(result);
   if (result.ransac_inliers >= 3 && std::isfinite(start)) {
     // The points' row model already holds the offset at their disparity.
@@ -189,8 +229,8 @@ match::MatchResult MatchStage::match_on(Band band, const cv::Mat& left, const cv
                                         const cv::Rect& box, const cv::Mat& infrared_left,
                                         std::pair<double, double> height_m) const {
   const bool silhouettes = options_.region && !infrared_left.empty();
-  if (silhouettes && infrared_left.size() != grid_size_) {
-    throw std::invalid_argument("match: the infrared image is not on the grid");
+  if (silhouettes && infrared_left.size() != infrared_size_) {
+    throw std::invalid_argument("match: the infrared image is not on the infrared pair's grid");
   }
   if (band != Band::infrared) {
     check_pair(left, right, grid_size_, CV_8UC1, band == Band::fused ? "fused" : "visible");
@@ -208,27 +248,36 @@ match::MatchResult MatchStage::match_on(Band band, const cv::Mat& left, const cv
         const Eigen::Vector2d s = silhouette_shift_per_disparity_ * d + silhouette_shift_;
         const cv::Point shift(static_cast<int>(std::lround(s.x())),
                               static_cast<int>(std::lround(s.y())));
-        silhouette = match::target_silhouette(infrared_left, box - shift);
+        const cv::Rect shifted = box - shift;
+        const cv::Rect reduced = reduce_box(shifted, infrared_reduction_);
+        silhouette = infrared_reduction_ == 1
+                         ? match::target_silhouette(infrared_left, shifted)
+                         : silhouette_on_grid(match::target_silhouette(infrared_left, reduced),
+                                              reduced, shifted, infrared_reduction_);
       }
     }
     align(band, left, right, box, silhouette, height_m, result);
     return result;
   }
-  check_pair(left, right, grid_size_, CV_16UC1, "infrared");
-  // The box's search region (the same in both eyes, so disparities are kept) stretched to 8
-  // bits, matched there, and the points moved back to the whole image.
-  const int pad = options_.match.patch_radius + 8;
-  const int reach = static_cast<int>(std::ceil(options_.match.max_disparity_px));
-  const cv::Rect region = cv::Rect(box.x - reach - pad, box.y - pad, box.width + reach + 2 * pad,
-                                   box.height + 2 * pad) &
+  check_pair(left, right, infrared_size_, CV_16UC1, "infrared");
+  // On the infrared pair's own image (the grid reduced by k): the box's search region (the same
+  // in both eyes, so disparities are kept) stretched to 8 bits, matched there, and the points
+  // moved back to the whole image and onto the grid.
+  const int k = infrared_reduction_;
+  const cv::Rect ir_box = reduce_box(box, k);
+  const int pad = infrared_match_.patch_radius + 8;
+  const int reach = static_cast<int>(std::ceil(infrared_match_.max_disparity_px));
+  const cv::Rect region = cv::Rect(ir_box.x - reach - pad, ir_box.y - pad,
+                                   ir_box.width + reach + 2 * pad, ir_box.height + 2 * pad) &
                           cv::Rect(0, 0, left.cols, left.rows);
   if (region.empty()) return {};
   cv::Mat left8, right8;
   stretch_counts(left(region), right(region), left8, right8);
-  match::MatchResult result = match::match_box(left8, right8, box - region.tl(), options_.match);
+  match::MatchResult result =
+      match::match_box(left8, right8, ir_box - region.tl(), infrared_match_);
   const cv::Mat silhouette =
-      silhouettes && aligns(result) ? match::target_silhouette(left, box) : cv::Mat();
-  align(band, left8, right8, box - region.tl(), silhouette, height_m, result);
+      silhouettes && aligns(result) ? match::target_silhouette(left, ir_box) : cv::Mat();
+  align(band, left8, right8, ir_box - region.tl(), silhouette, height_m, result);
   const Eigen::Vector2d offset(region.x, region.y);
   for (auto& c : result.matches) {
     c.left += offset;
@@ -236,6 +285,7 @@ match::MatchResult MatchStage::match_on(Band band, const cv::Mat& left, const cv
   }
   result.box += region.tl();
   result.region.anchor += offset;
+  if (k > 1) result_to_grid(result, k, box & cv::Rect(cv::Point(0, 0), grid_size_));
   return result;
 }
 

@@ -18,14 +18,18 @@ std::vector<ob::PairSetup> pair_setups(const PipelineGeometry& geometry,
   std::vector<ob::PairSetup> pairs;
   if (options.visible) pairs.push_back({ob::PairBand::visible, geometry.ranging(Band::visible)});
   if (options.infrared) {
-    pairs.push_back({ob::PairBand::infrared, geometry.ranging(Band::infrared)});
+    pairs.push_back(
+        {ob::PairBand::infrared, geometry.ranging(Band::infrared), geometry.infrared_reduction});
   }
   return pairs;
 }
 
 // The options with the reduction chosen for the grid (ObstacleStageOptions::reduced_px_per_rad).
 ObstacleStageOptions for_grid(const PipelineGeometry& geometry, ObstacleStageOptions options) {
-  const int reduction = grid_reduction(geometry.grid, options.reduced_px_per_rad);
+  int reduction = grid_reduction(geometry.grid, options.reduced_px_per_rad);
+  // A multiple of the infrared images' own reduction, which must divide it.
+  const int k = geometry.infrared_reduction;
+  if (options.infrared && k > 1) reduction = std::max(k, (reduction + k / 2) / k * k);
   if (options.reduced_px_per_rad > 0) options.obstacles.reduction = reduction;
   return options;
 }

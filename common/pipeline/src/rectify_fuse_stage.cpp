@@ -1,5 +1,6 @@
 #include "thermovis/pipeline/rectify_fuse_stage.hpp"
 
+#include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
 #include "thermovis/rectify/stereo_geometry.hpp"
@@ -37,10 +38,14 @@ RectifyFuseStage::RectifyFuseStage(const camera::Rig& rig, const PipelineGeometr
   visible_.left = remapper(rig, v.left_camera, v.T_ref_left_rect, grid, 0.0);
   visible_.right = remapper(rig, v.right_camera, v.T_ref_right_rect, grid, 0.0);
   // Each infrared camera onto its eye's visible frame, at the registration distance (its
-  // centre is not the eye's: at infinity only the rotation matters).
+  // centre is not the eye's: at infinity only the rotation matters), on the grid reduced by the
+  // infrared reduction.
   const double d = geometry.registration_distance_m;
-  infrared_.left = remapper(rig, geometry.infrared.left_camera, v.T_ref_left_rect, grid, d);
-  infrared_.right = remapper(rig, geometry.infrared.right_camera, v.T_ref_right_rect, grid, d);
+  const camera::RectifiedCamera infrared_grid(geometry.image_grid(Band::infrared));
+  infrared_.left =
+      remapper(rig, geometry.infrared.left_camera, v.T_ref_left_rect, infrared_grid, d);
+  infrared_.right =
+      remapper(rig, geometry.infrared.right_camera, v.T_ref_right_rect, infrared_grid, d);
 }
 
 RectifyFuseStage::~RectifyFuseStage() = default;
@@ -61,7 +66,18 @@ cv::Mat RectifyFuseStage::gain_control(Eye eye, const cv::Mat& infrared) {
 
 void RectifyFuseStage::fuse(Eye eye, const cv::Mat& infrared, const cv::Mat& visible,
                             cv::Mat& fused) {
-  fuse::fuse(gain_control(eye, infrared), visible, fused, options_.fusion);
+  cv::Mat grey = gain_control(eye, infrared);
+  if (grey.size() != visible.size() && geometry_.infrared_reduction > 1 &&
+      grey.size() == geometry_.image_size(Band::infrared)) {
+    // The reduced infrared onto the grid (pixel centres as grid_coordinate: cv::resize's), the
+    // last incomplete block's columns and rows from the edge.
+    const int k = geometry_.infrared_reduction;
+    cv::Mat up;
+    cv::resize(grey, up, cv::Size(grey.cols * k, grey.rows * k), 0, 0, cv::INTER_LINEAR);
+    cv::copyMakeBorder(up, grey, 0, visible.rows - up.rows, 0, visible.cols - up.cols,
+                       cv::BORDER_REPLICATE);
+  }
+  fuse::fuse(grey, visible, fused, options_.fusion);
 }
 
 }  // namespace thermovis::pipeline

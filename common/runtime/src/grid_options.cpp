@@ -17,6 +17,11 @@ void add_grid_options(CLI::App& app, pipeline::GridOptions& options) {
   app.add_option("--registration-m", options.registration_distance_m,
                  "distance at which infrared is registered onto visible, m (0: infinity)")
       ->capture_default_str();
+  app.add_option("--infrared-reduction", options.infrared_reduction,
+                 "the infrared pair's images are the grid reduced by this integer (0: to the "
+                 "infrared cameras' own resolution, 1: on the grid)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 8));
 }
 
 }  // namespace thermovis::runtime

@@ -37,8 +37,9 @@ struct Fixture {
     prior.camera_height_m = scene.camera_height_m;
     detector = std::make_unique<ob::ObstacleDetector>(
         g.grid,
-        std::vector<ob::PairSetup>{{ob::PairBand::visible, g.ranging(pl::Band::visible)},
-                                   {ob::PairBand::infrared, g.ranging(pl::Band::infrared)}},
+        std::vector<ob::PairSetup>{
+            {ob::PairBand::visible, g.ranging(pl::Band::visible)},
+            {ob::PairBand::infrared, g.ranging(pl::Band::infrared), g.infrared_reduction}},
         g.T_ref_reporting, prior);
   }
   pl::GridCapture capture;

@@ -179,6 +179,66 @@ TEST(CapturePipeline, FusedRangingByDayCombinesBothPairs) {
   EXPECT_GE(both, 3);
 }
 
+// On the visible camera's full grid the infrared pair is rectified at its cameras' own
+// resolution (half the grid's: PipelineGeometry::infrared_reduction 2), matched there, and its
+// points, disparities and regions come back in grid pixels. Against the same pair rectified
+// onto the full grid itself (reduction 1, four grid pixels interpolated from each of the
+// camera's), every person to 40 m is ranged as often and as well: the reduced images hold
+// all the cameras give. The fused images still show the infrared on the full grid.
+TEST(CapturePipeline, TheInfraredPairAtItsCamerasResolutionRangesAsOnTheFullGrid) {
+  const auto rig = thermovis::runtime::load_rig(thermovis::runtime::default_rig_path());
+  const sim::SimulatedRig simulated(
+      rig, thermovis::runtime::load_scene(thermovis::runtime::shipped_scene_path("paper")), 4);
+  sim::FrameSet frames = simulated.allocate();
+  simulated.render(0, frames);
+  struct Errors {
+    double sum = 0;
+    int ranged = 0, people = 0;
+  };
+  std::map<int, Errors> by_reduction;
+  for (const int reduction : {1, 0}) {
+    pl::CapturePipelineOptions options;
+    options.grid.scale = 1.0;
+    options.grid.infrared_reduction = reduction;
+    options.fuse = true;
+    pl::CapturePipeline pipeline(rig, options);
+    const int k = pipeline.geometry().infrared_reduction;
+    ASSERT_EQ(k, reduction == 0 ? 2 : 1);
+    const pl::GridCapture capture = pipeline.rectify(raw_of(frames));
+    ASSERT_EQ(capture.infrared_left.size(), pipeline.geometry().image_size(pl::Band::infrared));
+    EXPECT_EQ(capture.fused_left.size(), pipeline.geometry().grid_size());
+    Errors& e = by_reduction[k];
+    for (const auto& t : simulated.truth(0)) {
+      if (t.cls != sim::TargetClass::person || t.distance_m > 41) continue;
+      const cv::Rect box = truth_box(pipeline, t, pl::Band::infrared);
+      ASSERT_FALSE(box.empty()) << t.id;
+      const pl::CaptureTarget r = pipeline.range(capture, box, "person", pl::BandChoice::infrared);
+      ASSERT_EQ(r.matches.size(), 1u);
+      ++e.people;
+      std::cout << "infrared reduction " << k << ", " << t.id << ": " << text(r.ranged)
+                << " (truth " << t.distance_m << ", " << r.ranged.range.points_used
+                << " samples)\n";
+      // The points are on the grid, inside the box the detector gave.
+      for (const auto& c : r.matches.front().result.matches) {
+        EXPECT_GE(c.left.x(), box.x - 1.0) << t.id;
+        EXPECT_LE(c.left.x(), box.x + box.width) << t.id;
+      }
+      if (!r.ranged.ok()) continue;
+      ++e.ranged;
+      EXPECT_LT(std::abs(r.ranged.distance_m - t.distance_m), 0.03 * t.distance_m + 0.1) << t.id;
+      e.sum += std::abs(r.ranged.distance_m - t.distance_m) / t.distance_m;
+    }
+  }
+  const Errors& on_grid = by_reduction[1];
+  const Errors& own = by_reduction[2];
+  ASSERT_EQ(own.people, 7);  // 5 to 40 m
+  EXPECT_EQ(own.ranged, own.people);
+  EXPECT_GE(own.ranged, on_grid.ranged);
+  std::cout << "mean |relative error|: on the full grid " << 100 * on_grid.sum / on_grid.ranged
+            << " %, at the cameras' resolution " << 100 * own.sum / own.ranged << " %\n";
+  EXPECT_LT(own.sum / own.ranged, 1.5 * on_grid.sum / on_grid.ranged + 0.002);
+}
+
 // A target's box on the grid from its surface points is its silhouette's there: inside the box
 // that its raw silhouette box becomes when carried onto the grid (whose border turns with the
 // lens, so it holds more than the silhouette), and, on the infrared pair, higher in the image

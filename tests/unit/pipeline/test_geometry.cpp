@@ -57,6 +57,45 @@ TEST(PipelineGeometry, TheIdIsADigestOfEveryField) {
   EXPECT_NE(pl::make_geometry(rig(), {0.25}).id(), g.id());
 }
 
+TEST(PipelineGeometry, TheInfraredPairIsAtItsCamerasOwnResolution) {
+  // The pipeline grid is about the infrared cameras' own px per rad: their images are on it.
+  const pl::PipelineGeometry g = pl::make_geometry(rig(), {});
+  EXPECT_EQ(g.infrared_reduction, 1);
+  EXPECT_EQ(g.image_size(pl::Band::infrared), g.grid_size());
+  // The visible camera's full grid has twice theirs: the infrared images are it reduced by 2.
+  const pl::PipelineGeometry full = pl::make_geometry(rig(), {1.0});
+  ASSERT_EQ(full.infrared_reduction, 2);
+  EXPECT_EQ(full.image_size(pl::Band::infrared),
+            cv::Size(full.grid.width / 2, full.grid.height / 2));
+  EXPECT_EQ(full.image_size(pl::Band::visible), full.grid_size());
+  EXPECT_EQ(full.image_size(pl::Band::fused), full.grid_size());
+  // A reduced pixel sees along the ray of its block's centre on the grid.
+  const thermovis::camera::RectifiedCamera reduced(full.image_grid(pl::Band::infrared));
+  const thermovis::camera::RectifiedCamera grid(full.grid);
+  for (const Eigen::Vector2d& p : {Eigen::Vector2d(10, 20), Eigen::Vector2d(400.25, 300.5)}) {
+    Eigen::Vector3d a, b;
+    ASSERT_TRUE(reduced.unproject(p, a));
+    ASSERT_TRUE(grid.unproject(
+        Eigen::Vector2d(pl::grid_coordinate(p.x(), 2), pl::grid_coordinate(p.y(), 2)), b));
+    EXPECT_LT((a - b).norm(), 1e-12) << p.transpose();
+  }
+  // A grid box on a reduced image: every reduced pixel it touches.
+  EXPECT_EQ(pl::reduce_box({3, 4, 5, 6}, 2), cv::Rect(1, 2, 3, 3));
+  EXPECT_EQ(pl::reduce_box({-3, 4, 2, 2}, 2), cv::Rect(-2, 2, 2, 1));
+  EXPECT_EQ(pl::reduce_box({3, 4, 5, 6}, 1), cv::Rect(3, 4, 5, 6));
+  // The reduction is asked for, or the infrared kept on the grid; it is part of the digest.
+  pl::GridOptions on_grid;
+  on_grid.scale = 1.0;
+  on_grid.infrared_reduction = 1;
+  const pl::PipelineGeometry full_on_grid = pl::make_geometry(rig(), on_grid);
+  EXPECT_EQ(full_on_grid.infrared_reduction, 1);
+  EXPECT_NE(full_on_grid.id(), full.id());
+  on_grid.infrared_reduction = 9;
+  EXPECT_THROW(pl::make_geometry(rig(), on_grid), std::invalid_argument);
+  on_grid.infrared_reduction = -1;
+  EXPECT_THROW(pl::make_geometry(rig(), on_grid), std::invalid_argument);
+}
+
 TEST(PipelineGeometry, ValidateNamesWhatIsWrong) {
   const pl::PipelineGeometry good = pl::make_geometry(rig(), {});
   auto rejects = [&](const pl::PipelineGeometry& g, const std::string& word) {
@@ -83,6 +122,11 @@ TEST(PipelineGeometry, ValidateNamesWhatIsWrong) {
   g.infrared.T_ref_left_rect.linear() =
       Eigen::AngleAxisd(0.1, Eigen::Vector3d::UnitY()).toRotationMatrix();
   EXPECT_TRUE(rejects(g, "do not share"));
+  g = good;
+  g.infrared_reduction = 0;
+  EXPECT_TRUE(rejects(g, "infrared reduction"));
+  g.infrared_reduction = 200;
+  EXPECT_TRUE(rejects(g, "infrared reduction"));
 }
 
 TEST(PipelineGeometry, RawBoxesLandOnTheGridAndTheSearchCoversTheNearest) {

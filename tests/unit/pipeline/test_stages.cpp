@@ -284,10 +284,14 @@ TEST(MatchStage, AlignsEachBoxsWholeRegionOnEveryPair) {
 // there, once, with a box around it. reduced_px_per_rad 0 detects on the grid itself, and a
 // wrong-sized image is refused.
 TEST(DetectStage, DetectsOnTheFullGridReducedToThePipelines) {
+  const auto rig = thermovis::runtime::load_rig(thermovis::runtime::default_rig_path());
   pl::GridOptions full;
   full.scale = 1.0;
-  const auto geometry_full =
-      pl::make_geometry(thermovis::runtime::load_rig(thermovis::runtime::default_rig_path()), full);
+  full.infrared_reduction = 1;  // the infrared pair on the full grid itself
+  const auto geometry_full = pl::make_geometry(rig, full);
+  full.infrared_reduction = 0;  // at the infrared cameras' own resolution
+  const auto geometry_own = pl::make_geometry(rig, full);
+  ASSERT_EQ(geometry_own.infrared_reduction, 2);
   EXPECT_EQ(pl::DetectStage(geometry()).reduction(), 1);
   const pl::DetectStage reduced(geometry_full);
   ASSERT_EQ(reduced.reduction(), 2);
@@ -295,6 +299,10 @@ TEST(DetectStage, DetectsOnTheFullGridReducedToThePipelines) {
   own.reduced_px_per_rad = 0;
   const pl::DetectStage unreduced(geometry_full, own);
   EXPECT_EQ(unreduced.reduction(), 1);
+  // The infrared images already at their cameras' resolution are not reduced again; the
+  // boxes still come on the grid.
+  const pl::DetectStage on_own(geometry_own);
+  EXPECT_EQ(on_own.reduction(), 1);
   const auto& g = geometry_full.grid;
   cv::Mat counts(geometry_full.grid_size(), CV_16UC1);
   cv::randn(counts, 8000, 30);
@@ -303,12 +311,18 @@ TEST(DetectStage, DetectsOnTheFullGridReducedToThePipelines) {
   const cv::Rect person(static_cast<int>(g.cx) + 101, top, static_cast<int>(g.f * 0.5 / 20.0),
                         foot - top);
   counts(person).setTo(9500);
-  for (const pl::DetectStage* stage : {&reduced, &unreduced}) {
-    const auto found = stage->detect(counts);
+  cv::Mat counts_own;
+  const cv::Size own_size = geometry_own.image_size(pl::Band::infrared);
+  cv::resize(counts(cv::Rect(0, 0, own_size.width * 2, own_size.height * 2)), counts_own, own_size,
+             0, 0, cv::INTER_AREA);
+  const std::pair<const pl::DetectStage*, const cv::Mat*> cases[] = {
+      {&reduced, &counts}, {&unreduced, &counts}, {&on_own, &counts_own}};
+  for (const auto& [stage, image] : cases) {
+    const auto found = stage->detect(*image);
     std::vector<cv::Rect> on_person;  // (i.i.d. noise makes small warm specks elsewhere)
     for (const auto& d : found)
       if ((d.box & person).area() > person.area() / 2) on_person.push_back(d.box);
-    ASSERT_EQ(on_person.size(), 1u) << "reduction " << stage->reduction();
+    ASSERT_EQ(on_person.size(), 1u) << "image " << image->cols << "x" << image->rows;
     // The blob's 3 x 5 px closing pads its box by a few pixels of the image it ran on (twice
     // as many grid pixels when reduced): the box holds the person and not twice its area.
     const cv::Rect box = on_person[0];
@@ -317,6 +331,7 @@ TEST(DetectStage, DetectsOnTheFullGridReducedToThePipelines) {
   }
   EXPECT_THROW(reduced.detect(cv::Mat(geometry().grid_size(), CV_16UC1, cv::Scalar(8000))),
                std::invalid_argument);
+  EXPECT_THROW(on_own.detect(counts), std::invalid_argument);  // not the infrared pair's grid
   pl::DetectOptions bad;
   bad.reduced_px_per_rad = -1;
   EXPECT_THROW(pl::DetectStage(geometry_full, bad), std::invalid_argument);

@@ -49,6 +49,9 @@ inline unsigned band_bit(PairBand band) {
 struct PairSetup {
   PairBand band = PairBand::visible;
   range::RangingGeometry geometry;
+  // The pair's images are the pipeline grid reduced by this integer (the infrared pair's own
+  // resolution on a fine grid); it must divide ObstacleOptions::reduction.
+  int image_reduction = 1;
 };
 
 struct ObstacleOptions {
@@ -166,7 +169,8 @@ class ObstacleDetector {
   double max_disparity_px() const { return max_disparity_px_; }  // reduced px
   bool has(PairBand band) const;
 
-  // One pair's rectified images on the pipeline grid (CV_8UC1, CV_8UC3 or CV_16UC1 counts).
+  // One pair's rectified images on the pipeline grid reduced by its image_reduction (CV_8UC1,
+  // CV_8UC3 or CV_16UC1 counts).
   // Throws std::invalid_argument for a band not set up or images of another size or type.
   PairObstacles detect_pair(PairBand band, const cv::Mat& left, const cv::Mat& right) const;
   // The same, the ground searched about `tracker`'s last one (GroundTracker), which takes this

@@ -5,6 +5,12 @@
 // tools and other applications take it from there instead of rebuilding it, so that no two of
 // them can disagree about it.
 //
+// The infrared pair's images may be the grid reduced by an integer (PipelineGeometry::
+// infrared_reduction): on the visible camera's full grid the infrared cameras have half its
+// pixels per radian, and rectifying them onto it would only interpolate four grid pixels from
+// each of theirs. A reduced image's pixel u' is the grid's (u' + 0.5) k - 0.5; boxes, points and
+// disparities leave the stages in grid pixels whatever image they were measured on.
+//
 // Frames (metres): the rig frame is the reference camera's (camera/rig.hpp). Every rectified
 // frame has the visible pair's rotation (x along the visible baseline, y down, z forward;
 // rectify/stereo_geometry.hpp); the visible pair's frames are centred on the visible cameras, the
@@ -35,6 +41,10 @@ struct GridOptions {
   // Distance at which the infrared is registered onto the visible, m (<= 0: infinity, which
   // PipelineGeometry::infrared describes exactly; rectify_fuse_stage.hpp).
   double registration_distance_m = 0.0;
+  // The integer the infrared pair's images reduce the grid by (k x k grid px to one); 0: the one
+  // nearest the grid's px per rad over the infrared cameras' own (their pair's default grid):
+  // 1 on the pipeline grid, 2 on the visible camera's full grid.
+  int infrared_reduction = 0;
 };
 
 // One pair on the grid: its two rectified frames in the rig frame (the same rotation) and the
@@ -54,14 +64,31 @@ struct PipelineGeometry {
   // The left visible camera in the rig frame: ranges are reported from its centre, in its frame.
   Eigen::Isometry3d T_ref_reporting = Eigen::Isometry3d::Identity();
   double registration_distance_m = 0.0;  // GridOptions'
+  // The infrared pair's images are the grid reduced by this integer (1: on the grid itself).
+  int infrared_reduction = 1;
 
   cv::Size grid_size() const { return {grid.width, grid.height}; }
+  // The grid a band's images are on (visible, fused: the grid; infrared: reduced by
+  // infrared_reduction), and its size.
+  camera::RectifiedIntrinsics image_grid(Band band) const;
+  cv::Size image_size(Band band) const;
+  // The integer a band's images reduce the grid by.
+  int reduction(Band band) const { return band == Band::infrared ? infrared_reduction : 1; }
   // The ranging geometry of a pair's points (fused points: the visible pair's).
   range::RangingGeometry ranging(Band band) const;
   // A digest of every field (FNV-1a over the values): frames carry it, so a reader knows the
   // geometry it holds is the one a frame was made on. Never 0.
   std::uint32_t id() const;
 };
+
+// The grid reduced by an integer k: k x k pixels to one, its first k * (size / k) columns and
+// rows; pixel centres move as in camera::scaled (cx' = (cx + 0.5) / k - 0.5). Throws
+// std::invalid_argument for k < 1.
+camera::RectifiedIntrinsics reduce_grid(const camera::RectifiedIntrinsics& grid, int k);
+// A coordinate of an image reduced by k on the grid: (x + 0.5) k - 0.5.
+inline double grid_coordinate(double reduced, int k) { return (reduced + 0.5) * k - 0.5; }
+// A box of grid pixels on the image reduced by k: every reduced pixel it touches.
+cv::Rect reduce_box(const cv::Rect& box, int k);
 
 // Throws std::invalid_argument for a rig without its pairs' cameras or a degenerate pair.
 PipelineGeometry make_geometry(const camera::Rig& rig, const GridOptions& options);
@@ -74,7 +101,8 @@ int grid_reduction(const camera::RectifiedIntrinsics& grid, double px_per_rad);
 // Checks a geometry received from elsewhere (a message, a file): std::invalid_argument naming
 // the field for a grid that is empty or larger than `max_size`, a non-finite or non-positive f,
 // a non-finite centre or pose, a rotation that is not one (|R^T R - I| > 1e-6), the two pairs
-// not sharing one rotation, or a baseline that is not positive.
+// not sharing one rotation, a baseline that is not positive, or an infrared reduction outside
+// 1-8 or leaving an image under 16 px.
 void validate(const PipelineGeometry& geometry, cv::Size max_size);
 
 // The largest disparity either pair can show for a target at min_distance_m or further (the

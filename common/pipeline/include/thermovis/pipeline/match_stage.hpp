@@ -50,9 +50,10 @@ struct MatchStageOptions {
   match::RegionOptions region_options;  // its disparity range is set like the points'
 };
 
-// One capture's pairs on the grid, as the stage reads them. primary: the visible or fused pair,
-// CV_8UC1 grey (stage_grey makes it from BGR); infrared: CV_16UC1 counts. A pair the choice does
-// not use, or that is not there, is left empty.
+// One capture's pairs, as the stage reads them. primary: the visible or fused pair on the grid,
+// CV_8UC1 grey (stage_grey makes it from BGR); infrared: CV_16UC1 counts on the infrared pair's
+// grid (PipelineGeometry::image_size; its points and disparities come back in grid pixels). A pair
+// the choice does not use, or that is not there, is left empty.
 struct MatchImages {
   cv::Mat primary_left, primary_right;
   cv::Mat infrared_left, infrared_right;
@@ -108,6 +109,11 @@ class MatchStage {
              match::MatchResult& result) const;
 
   cv::Size grid_size_;
+  cv::Size infrared_size_;      // the infrared pair's images (PipelineGeometry::image_size)
+  int infrared_reduction_ = 1;  // grid px per infrared image px
+  // The infrared pair's search in its own image's pixels.
+  match::MatchOptions infrared_match_;
+  match::RegionOptions infrared_region_;
   double baseline_visible_m_ = 0, baseline_infrared_m_ = 0;
   double infrared_rows_per_disparity_ = 0;  // the infrared pair's epipolar slope on the grid
   // Where the infrared silhouette lies on the visible image: shift (px) = per_disparity *

@@ -91,6 +91,7 @@ class RangeStage {
 
   range::RangingGeometry visible_, infrared_;
   double grid_px_per_rad_;
+  int infrared_reduction_ = 1;  // PipelineGeometry::infrared_reduction
   Eigen::Isometry3d T_reporting_ref_;
   RangeStageOptions options_;
 };

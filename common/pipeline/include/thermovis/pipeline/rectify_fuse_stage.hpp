@@ -45,13 +45,15 @@ class RectifyFuseStage {
   const PipelineGeometry& geometry() const { return geometry_; }
   cv::Size grid_size() const { return geometry_.grid_size(); }
 
-  // `out` is reused when it has the grid's size and the input's type (a loaned sample's buffer).
+  // `out` is reused when it has the band's image size (PipelineGeometry::image_size: the grid,
+  // the infrared's reduced by its reduction) and the input's type (a loaned sample's buffer).
   // Throws std::invalid_argument naming the camera for a wrong size or type.
   void rectify_visible(Eye eye, const cv::Mat& raw, cv::Mat& out) const;
   void rectify_infrared(Eye eye, const cv::Mat& raw, cv::Mat& out) const;
   // The gain-controlled (CV_8UC1) image of rectified infrared counts; updates the eye's mapping.
   cv::Mat gain_control(Eye eye, const cv::Mat& infrared);
-  // Gain control, then fusion with the rectified visible image of the same eye, into `fused`.
+  // Gain control, then fusion with the rectified visible image of the same eye, into `fused`
+  // (a reduced infrared image brought onto the grid first).
   void fuse(Eye eye, const cv::Mat& infrared, const cv::Mat& visible, cv::Mat& fused);
 
  private:
