@@ -266,9 +266,11 @@ std::vector<CheckedRange> PipelineSession::step() {
       c.seq = array.frame_seq();
       c.latency_ms = latency;
       c.range = range;
-      c.truth =
-          truth_on_line_of_sight(truth, Eigen::Vector3d(range.x_m(), range.y_m(), range.z_m()));
-      if (c.truth) c.error_m = range.distance_m() - c.truth->distance_m;
+      if (const sim::TargetTruth* t = truth_on_line_of_sight(
+              truth, Eigen::Vector3d(range.x_m(), range.y_m(), range.z_m()))) {
+        c.truth = summary_of(*t);
+        c.error_m = range.distance_m() - t->distance_m;
+      }
       out.push_back(c);
       checked_.push_back(c);
     }
@@ -304,9 +306,10 @@ std::vector<CheckedObstacle> PipelineSession::step_obstacles() {
       if (o.has_target()) {
         // A ranged target: the simulated target on its range's line of sight, as its range
         // line has it, at its centre's horizontal distance.
-        c.truth = truth_on_line_of_sight(truth, Eigen::Vector3d(o.x_m(), o.y_m(), o.z_m()));
-        if (c.truth) {
-          c.truth_distance_m = horizontal(c.truth->position_m);
+        if (const sim::TargetTruth* t =
+                truth_on_line_of_sight(truth, Eigen::Vector3d(o.x_m(), o.y_m(), o.z_m()))) {
+          c.truth = summary_of(*t);
+          c.truth_distance_m = horizontal(t->position_m);
           c.error_m = o.distance_m() - c.truth_distance_m;
         }
       } else {
@@ -323,7 +326,7 @@ std::vector<CheckedObstacle> PipelineSession::step_obstacles() {
             continue;
           }
           if (!c.truth || std::abs(error) < std::abs(c.error_m)) {
-            c.truth = truth[k];
+            c.truth = summary_of(truth[k]);
             c.truth_distance_m = d;
             c.error_m = error;
           }

@@ -17,6 +17,7 @@
 #include "thermovis/obstacles.h"
 #include "thermovis/pipeline/geometry.hpp"
 #include "thermovis/sim/simulated_rig.hpp"
+#include "truth_match.hpp"
 
 namespace thermovis::node {
 class GeometrySubscriber;
@@ -58,7 +59,7 @@ void add_session_options(CLI::App& app, SessionOptions& options);
 struct CheckedRange {
   std::uint64_t seq = 0;
   TargetRange range;
-  std::optional<sim::TargetTruth> truth;
+  std::optional<TruthSummary> truth;
   double error_m = 0.0;     // distance - truth distance (when truth)
   double latency_ms = 0.0;  // capture to range, from the frame's stamps
 };
@@ -73,7 +74,7 @@ struct CheckedRange {
 struct CheckedObstacle {
   std::uint64_t seq = 0;
   Obstacle obstacle;
-  std::optional<sim::TargetTruth> truth;
+  std::optional<TruthSummary> truth;
   double truth_distance_m = 0.0;  // when truth
   double error_m = 0.0;           // distance - truth distance (when truth)
   double latency_ms = 0.0;        // capture to the obstacle array, from its stamps
