@@ -1,7 +1,9 @@
-# thermovis_add_gtest(NAME <exe> SOURCES ... LIBS ... LABEL unit|integration|lab|bench [TIMEOUT s])
+# thermovis_add_gtest(NAME <exe> SOURCES ... LIBS ... LABEL unit|integration|lab|bench [TIMEOUT s]
+#                     [SERIAL])
 # One CTest entry per test case, each with a label, a timeout and the test-data location.
+# SERIAL: its tests run with nothing else beside them (RUN_SERIAL), not even unit tests.
 function(thermovis_add_gtest)
-  cmake_parse_arguments(ARG "" "NAME;LABEL;TIMEOUT" "SOURCES;LIBS" ${ARGN})
+  cmake_parse_arguments(ARG "SERIAL" "NAME;LABEL;TIMEOUT" "SOURCES;LIBS" ${ARGN})
   if(NOT ARG_TIMEOUT)
     set(ARG_TIMEOUT 300)
   endif()
@@ -14,6 +16,9 @@ function(thermovis_add_gtest)
   set(lock "")
   if(ARG_LABEL MATCHES "^(integration|lab|soak)$")
     set(lock RESOURCE_LOCK pipeline)
+  endif()
+  if(ARG_SERIAL)
+    list(APPEND lock RUN_SERIAL TRUE)
   endif()
   gtest_discover_tests(${ARG_NAME}
     DISCOVERY_TIMEOUT 60
