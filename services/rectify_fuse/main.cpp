@@ -17,6 +17,10 @@ int main(int argc, char** argv) {
   runtime::add_grid_options(app, config.grid);
   app.add_option("--fusion", method, "fast | vsmwls | vsmwls-paper")->capture_default_str();
   app.add_flag("--no-enhance", no_enhance, "skip the visible contrast enhancement");
+  bool no_bin = false;
+  app.add_flag("--no-bin-visible", no_bin,
+               "remap the visible cameras' raw images as they are, not binned to about the "
+               "grid's px per rad first (2 x 2 on the pipeline grid)");
   std::string fused_eyes = "left";
   app.add_option("--fused-eyes", fused_eyes,
                  "left (the display's) | both (needed by thermovis-match --band fused)")
@@ -40,6 +44,7 @@ int main(int argc, char** argv) {
     if (!parsed) throw std::invalid_argument("unknown fusion method '" + method + "'");
     config.stage.fusion.method = *parsed;
     if (no_enhance) config.stage.fusion.enhance_visible.reset();
+    config.stage.bin_visible = !no_bin;
     config.fuse_right_eye = fused_eyes == "both";
     config.parallel_bands = parallel_bands;
     config.deadline = app.deadline();

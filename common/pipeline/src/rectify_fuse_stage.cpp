@@ -8,13 +8,24 @@
 namespace thermovis::pipeline {
 namespace {
 
+// The map of a camera onto `grid`, from its raw image binned by `bin` (bin x bin pixels
+// averaged: a raw pixel centre x is the binned image's (x + 0.5) / bin - 0.5).
 std::unique_ptr<fpga::FastRemapper> remapper(const camera::Rig& rig, const std::string& camera,
                                              const Eigen::Isometry3d& T_ref_rect,
-                                             const camera::RectifiedCamera& grid,
-                                             double distance_m) {
+                                             const camera::RectifiedCamera& grid, double distance_m,
+                                             int bin = 1) {
   const camera::RigCamera& cam = rig.camera(camera);
-  return std::make_unique<fpga::FastRemapper>(fpga::FixedPointMap::from_float(
-      rectify::build_map(cam, T_ref_rect, grid, distance_m), cam.model->image_size()));
+  cv::Mat map = rectify::build_map(cam, T_ref_rect, grid, distance_m);
+  const cv::Size raw = cam.model->image_size();
+  if (bin > 1) {
+    map.forEach<cv::Vec2f>([bin](cv::Vec2f& p, const int*) {
+      if (p[0] == -1.0f && p[1] == -1.0f) return;  // no ray: stays the sentinel
+      p = cv::Vec2f((p[0] + 0.5f) / static_cast<float>(bin) - 0.5f,
+                    (p[1] + 0.5f) / static_cast<float>(bin) - 0.5f);
+    });
+  }
+  return std::make_unique<fpga::FastRemapper>(
+      fpga::FixedPointMap::from_float(map, cv::Size(raw.width / bin, raw.height / bin)));
 }
 
 void remap_into(const fpga::FastRemapper& map, const cv::Mat& raw, cv::Mat& out,
@@ -35,8 +46,19 @@ RectifyFuseStage::RectifyFuseStage(const camera::Rig& rig, const PipelineGeometr
       agc_{enhance::InfraredAgc(options.agc), enhance::InfraredAgc(options.agc)} {
   const camera::RectifiedCamera grid(geometry.grid);
   const PairGeometry& v = geometry.visible;
-  visible_.left = remapper(rig, v.left_camera, v.T_ref_left_rect, grid, 0.0);
-  visible_.right = remapper(rig, v.right_camera, v.T_ref_right_rect, grid, 0.0);
+  // A visible camera with twice the grid's px per rad or more is binned to about the grid's
+  // before the remap: bilinear sampling at half the camera's resolution reads 4 of every 16
+  // raw pixels and aliases their texture into the grid (the pipeline grid, 417 px/rad, of the
+  // 835 px/rad cameras).
+  visible_bin_ =
+      options_.bin_visible
+          ? grid_reduction(rectify::default_pair_grid(rig, rig.visible, geometry.grid.projection),
+                           geometry.grid.f)
+          : 1;
+  for (const std::string& name : {v.left_camera, v.right_camera})
+    visible_raw_.push_back(rig.camera(name).model->image_size());
+  visible_.left = remapper(rig, v.left_camera, v.T_ref_left_rect, grid, 0.0, visible_bin_);
+  visible_.right = remapper(rig, v.right_camera, v.T_ref_right_rect, grid, 0.0, visible_bin_);
   // Each infrared camera onto its eye's visible frame, at the registration distance (its
   // centre is not the eye's: at infinity only the rotation matters), on the grid reduced by the
   // infrared reduction.
@@ -51,8 +73,20 @@ RectifyFuseStage::RectifyFuseStage(const camera::Rig& rig, const PipelineGeometr
 RectifyFuseStage::~RectifyFuseStage() = default;
 
 void RectifyFuseStage::rectify_visible(Eye eye, const cv::Mat& raw, cv::Mat& out) const {
-  remap_into(visible_[eye], raw, out,
-             eye == Eye::left ? geometry_.visible.left_camera : geometry_.visible.right_camera);
+  const std::string& camera =
+      eye == Eye::left ? geometry_.visible.left_camera : geometry_.visible.right_camera;
+  if (visible_bin_ == 1) return remap_into(visible_[eye], raw, out, camera);
+  const cv::Size size = visible_raw_[eye == Eye::left ? 0 : 1];
+  if (raw.size() != size) {
+    throw std::invalid_argument(camera + ": image is " + std::to_string(raw.cols) + "x" +
+                                std::to_string(raw.rows) + ", the camera's " +
+                                std::to_string(size.width) + "x" + std::to_string(size.height));
+  }
+  const int b = visible_bin_;
+  cv::Mat& binned = binned_visible_[eye == Eye::left ? 0 : 1];
+  cv::resize(raw(cv::Rect(0, 0, size.width / b * b, size.height / b * b)), binned,
+             cv::Size(size.width / b, size.height / b), 0, 0, cv::INTER_AREA);
+  remap_into(visible_[eye], binned, out, camera);
 }
 
 void RectifyFuseStage::rectify_infrared(Eye eye, const cv::Mat& raw, cv::Mat& out) const {

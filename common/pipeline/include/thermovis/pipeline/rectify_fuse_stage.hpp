@@ -3,7 +3,9 @@
 //
 // One composed map per camera (distortion correction + rectification, and for the infrared
 // cameras the registration onto their eye's visible frame), computed once and applied in fixed
-// point (fpga/remap.hpp: bit-exact with the FPGA model). Pixel formats:
+// point (fpga/remap.hpp: bit-exact with the FPGA model), from the raw image or, for a visible
+// camera with twice the grid's px per rad or more, from it binned to about the grid's
+// (RectifyFuseOptions::bin_visible). Pixel formats:
 //  - visible: raw CV_8UC3 (BGR) or CV_8UC1 of the visible camera's size -> the same type on the
 //    grid;
 //  - infrared: raw CV_16UC1 counts (or CV_8UC1) of the infrared camera's size -> the same type on
@@ -18,6 +20,8 @@
 #include <array>
 #include <memory>
 #include <opencv2/core/mat.hpp>
+#include <string>
+#include <vector>
 
 #include "thermovis/camera/rig.hpp"
 #include "thermovis/enhance/infrared_agc.hpp"
@@ -32,6 +36,9 @@ struct RectifyFuseOptions {
   fuse::FusionOptions fusion{
       fuse::FusionMethod::fast, fuse::ColourMode::luminance, {}, enhance::VisibleContrastParams{}};
   enhance::AgcParams agc;
+  // Bin the visible cameras' raw images to about the grid's px per rad before the remap when
+  // they have twice its or more (2 x 2 on the pipeline grid).
+  bool bin_visible = true;
 };
 
 class RectifyFuseStage {
@@ -66,6 +73,9 @@ class RectifyFuseStage {
   PipelineGeometry geometry_;
   RectifyFuseOptions options_;
   Eyes visible_, infrared_;
+  int visible_bin_ = 1;                            // raw visible px per binned px, each way
+  std::vector<cv::Size> visible_raw_;              // the visible cameras' sizes, left, right
+  mutable std::array<cv::Mat, 2> binned_visible_;  // per eye (the eyes may run on two threads)
   std::array<enhance::InfraredAgc, 2> agc_;
 };
 
