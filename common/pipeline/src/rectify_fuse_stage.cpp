@@ -76,11 +76,14 @@ void RectifyFuseStage::rectify_visible(Eye eye, const cv::Mat& raw, cv::Mat& out
   const std::string& camera =
       eye == Eye::left ? geometry_.visible.left_camera : geometry_.visible.right_camera;
   if (visible_bin_ == 1) return remap_into(visible_[eye], raw, out, camera);
+  // The remapper's own checks, on the raw image (it sees the binned one).
   const cv::Size size = visible_raw_[eye == Eye::left ? 0 : 1];
+  if (raw.empty()) throw std::invalid_argument(camera + ": remap: the input image is empty");
   if (raw.size() != size) {
-    throw std::invalid_argument(camera + ": image is " + std::to_string(raw.cols) + "x" +
-                                std::to_string(raw.rows) + ", the camera's " +
-                                std::to_string(size.width) + "x" + std::to_string(size.height));
+    throw std::invalid_argument(camera + ": remap: input image is " + std::to_string(raw.cols) +
+                                "x" + std::to_string(raw.rows) + " but the table was made for a " +
+                                std::to_string(size.width) + "x" + std::to_string(size.height) +
+                                " camera");
   }
   const int b = visible_bin_;
   cv::Mat& binned = binned_visible_[eye == Eye::left ? 0 : 1];
