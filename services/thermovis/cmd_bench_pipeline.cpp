@@ -323,9 +323,9 @@ int run_bench(Options& opt) {
     }
     std::cout << "\n  pipeline without the bridge (the camera's cost) " << budget.pipeline_ms
               << " ms; floor " << std::setprecision(2) << budget.floor_ms
-              << " ms (one copy of every image of a capture + cv::resize INTER_AREA of each to the "
-              << budget.grid.width << "x" << budget.grid.height
-              << " grid): " << std::setprecision(1) << budget.pipeline_ms / budget.floor_ms
+              << " ms (one copy of every image of a capture + cv::resize INTER_AREA of each to "
+              << "its band's grid, visible " << budget.grid.width << "x" << budget.grid.height
+              << "): " << std::setprecision(1) << budget.pipeline_ms / budget.floor_ms
               << " x floor; with INTER_LINEAR " << std::setprecision(2) << budget.linear_floor_ms
               << " ms: " << std::setprecision(1) << budget.pipeline_ms / budget.linear_floor_ms
               << " x\n";
