@@ -32,8 +32,8 @@ camera::RectifiedIntrinsics PipelineGeometry::image_grid(Band band) const {
 }
 
 cv::Size PipelineGeometry::image_size(Band band) const {
-  const int k = reduction(band);
-  return {grid.width / k, grid.height / k};
+  const camera::RectifiedIntrinsics g = image_grid(band);
+  return {g.width, g.height};
 }
 
 camera::RectifiedIntrinsics reduce_grid(const camera::RectifiedIntrinsics& grid, int k) {
@@ -57,6 +57,15 @@ cv::Rect reduce_box(const cv::Rect& box, int k) {
 }
 
 namespace {
+
+// An infrared reduction no stage can work with: std::invalid_argument, `what` first.
+void check_infrared_reduction(const camera::RectifiedIntrinsics& grid, int k,
+                              const std::string& what) {
+  if (k < 1 || k > 8 || grid.width / k < 16 || grid.height / k < 16) {
+    throw std::invalid_argument(what + "infrared reduction " + std::to_string(k) +
+                                " is outside 1-8 or leaves an image under 16 px");
+  }
+}
 
 class Digest {
  public:
@@ -156,11 +165,7 @@ PipelineGeometry make_geometry(const camera::Rig& rig, const GridOptions& option
           ? options.infrared_reduction
           : grid_reduction(out.grid,
                            rectify::default_pair_grid(rig, rig.infrared, options.projection).f);
-  const int k = out.infrared_reduction;
-  if (k > 8 || out.grid.width / k < 16 || out.grid.height / k < 16) {
-    throw std::invalid_argument("infrared reduction " + std::to_string(k) +
-                                " is over 8 or leaves an image under 16 px");
-  }
+  check_infrared_reduction(out.grid, out.infrared_reduction, "");
   return out;
 }
 
@@ -194,12 +199,7 @@ void validate(const PipelineGeometry& g, cv::Size max_size) {
     }
   }
   check_finite(g.T_ref_reporting, "geometry: reporting frame");
-  if (g.infrared_reduction < 1 || g.infrared_reduction > 8 || i.width / g.infrared_reduction < 16 ||
-      i.height / g.infrared_reduction < 16) {
-    throw std::invalid_argument("geometry: infrared reduction " +
-                                std::to_string(g.infrared_reduction) +
-                                " is outside 1-8 or leaves an image under 16 px");
-  }
+  check_infrared_reduction(i, g.infrared_reduction, "geometry: ");
   if (!std::isfinite(g.registration_distance_m)) {
     throw std::invalid_argument("geometry: registration distance is not finite");
   }
