@@ -38,11 +38,7 @@ std::vector<detect::Detection> DetectStage::detect(const cv::Mat& infrared,
   }
   const int k = reduction_;
   cv::Mat image = infrared;
-  if (k > 1) {
-    const cv::Size size = reduced_grid_.image_size();
-    cv::resize(infrared(cv::Rect(0, 0, size.width * k, size.height * k)), image, size, 0, 0,
-               cv::INTER_AREA);
-  }
+  if (k > 1) reduce_image(infrared, k, image);
   const camera::RectifiedCamera& grid = k > 1 ? reduced_grid_ : grid_;
   std::vector<detect::Detection> found =
       classifier_ ? classifier_->detect(image, cv::Mat(), &grid)

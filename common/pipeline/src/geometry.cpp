@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
 #include "thermovis/rectify/stereo_geometry.hpp"
@@ -46,6 +47,12 @@ camera::RectifiedIntrinsics reduce_grid(const camera::RectifiedIntrinsics& grid,
   out.cx = (grid.cx + 0.5) / k - 0.5;
   out.cy = (grid.cy + 0.5) / k - 0.5;
   return out;
+}
+
+void reduce_image(const cv::Mat& image, int k, cv::Mat& out) {
+  const cv::Size size(image.cols / k, image.rows / k);
+  cv::resize(image(cv::Rect(0, 0, size.width * k, size.height * k)), out, size, 0, 0,
+             cv::INTER_AREA);
 }
 
 cv::Rect reduce_box(const cv::Rect& box, int k) {

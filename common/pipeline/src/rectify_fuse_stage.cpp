@@ -85,10 +85,8 @@ void RectifyFuseStage::rectify_visible(Eye eye, const cv::Mat& raw, cv::Mat& out
                                 std::to_string(size.width) + "x" + std::to_string(size.height) +
                                 " camera");
   }
-  const int b = visible_bin_;
   cv::Mat& binned = binned_visible_[eye == Eye::left ? 0 : 1];
-  cv::resize(raw(cv::Rect(0, 0, size.width / b * b, size.height / b * b)), binned,
-             cv::Size(size.width / b, size.height / b), 0, 0, cv::INTER_AREA);
+  reduce_image(raw, visible_bin_, binned);
   remap_into(visible_[eye], binned, out, camera);
 }
 

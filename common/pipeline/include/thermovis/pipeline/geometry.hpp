@@ -85,6 +85,9 @@ struct PipelineGeometry {
 // rows; pixel centres move as in camera::scaled (cx' = (cx + 0.5) / k - 0.5). Throws
 // std::invalid_argument for k < 1.
 camera::RectifiedIntrinsics reduce_grid(const camera::RectifiedIntrinsics& grid, int k);
+// An image reduced by an integer k as reduce_grid reduces its grid: its first k * (size / k)
+// columns and rows, k x k pixels averaged to one (cv::resize INTER_AREA) into `out`.
+void reduce_image(const cv::Mat& image, int k, cv::Mat& out);
 // A coordinate of an image reduced by k on the grid: (x + 0.5) k - 0.5.
 inline double grid_coordinate(double reduced, int k) { return (reduced + 0.5) * k - 0.5; }
 // A box of grid pixels on the image reduced by k: every reduced pixel it touches.
