@@ -167,7 +167,7 @@ void RectifyFuseNode::process(const VisibleStereoFrame& visible,
     for (const Eye eye : {Eye::left, Eye::right}) {
       // view() checks the headers; the stage checks the sizes against the rig's cameras.
       cv::Mat& out = rect_visible[eye == Eye::left ? 0 : 1];
-      out = node::prepare(*out_visible, eye, grid, CV_8UC3);
+      out = node::prepare(*out_visible, eye, grid, stage_.visible_mono() ? CV_8UC1 : CV_8UC3);
       stage_.rectify_visible(eye, node::view(visible, eye), out);
     }
     out_visible->eyes(EYES_BOTH);
@@ -224,8 +224,9 @@ void RectifyFuseNode::fuse(const std::array<cv::Mat, 2>& rect_infrared,
     const Eye eye = i == 0 ? Eye::left : Eye::right;
     // The fusion writes into the loaned sample (the buffer has the output's size and type).
     cv::Mat fused = node::prepare(*out_fused, eye, grid, CV_8UC3);
-    stage_.fuse(eye, rect_infrared[static_cast<std::size_t>(i)],
-                rect_visible[static_cast<std::size_t>(i)], fused);
+    const auto k = static_cast<std::size_t>(i);
+    stage_.fuse(eye, rect_infrared[k],
+                stage_.fusion_visible(eye, rect_visible[k], node::view(visible, eye)), fused);
   }
   out_fused->eyes(config_.fuse_right_eye ? EYES_BOTH : EYES_LEFT);
   copy_header(*out_fused, visible, geometry_id_, fusion_start_ns);

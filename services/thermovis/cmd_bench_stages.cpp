@@ -104,7 +104,10 @@ int run_bench_stages(const Options& opt) {
                             capture.visible_right);
     });
     timed("fuse", [&] {
-      stage.fuse(pl::Eye::left, capture.infrared_left, capture.visible_left, capture.fused_left);
+      stage.fuse(pl::Eye::left, capture.infrared_left,
+                 stage.fusion_visible(pl::Eye::left, capture.visible_left,
+                                      frames[sim::Slot::visible_left]),
+                 capture.fused_left);
     });
     std::vector<thermovis::detect::Detection> found;
     timed("detect", [&] { found = pipeline.detect(capture); });

@@ -50,7 +50,11 @@ GridCapture CapturePipeline::rectify(const RawCapture& raw) {
                             out.infrared_right);
   out.grey_left = MatchStage::stage_grey(out.visible_left);
   out.grey_right = MatchStage::stage_grey(out.visible_right);
-  if (options_.fuse) rectify_.fuse(Eye::left, out.infrared_left, out.visible_left, out.fused_left);
+  if (options_.fuse) {
+    rectify_.fuse(Eye::left, out.infrared_left,
+                  rectify_.fusion_visible(Eye::left, out.visible_left, raw.visible_left),
+                  out.fused_left);
+  }
   return out;
 }
 

@@ -165,7 +165,16 @@ MatchStage::MatchStage(const PipelineGeometry& geometry, const MatchStageOptions
 }
 
 bool MatchStage::aligns(const match::MatchResult& result) const {
-  return options_.region && static_cast<int>(result.matches.size()) < options_.region_below_points;
+  if (!options_.region) return false;
+  const int n = static_cast<int>(result.matches.size());
+  if (n < options_.region_below_points) return true;
+  if (n >= options_.region_split_below_points) return false;
+  // A nearer group than the median's: what the range's screen would keep.
+  const double median = median_disparity(result);
+  const double window = std::max(0.5, 0.06 * median);
+  int nearer = 0;
+  for (const auto& c : result.matches) nearer += c.disparity_px > median + window;
+  return nearer >= 3;
 }
 
 void MatchStage::align(Band band, const cv::Mat& left8, const cv::Mat& right8, const cv::Rect& box,
@@ -174,8 +183,8 @@ void MatchStage::align(Band band, const cv::Mat& left8, const cv::Mat& right8, c
   if (!options_.region) return;
   if (!aligns(result)) {
     result.region.status = match::RegionStatus::not_aligned;
-    result.region.message = "not aligned: the box has " + std::to_string(result.matches.size()) +
-                            " point correspondences";
+    result.region.message = "not aligned: the box's " + std::to_string(result.matches.size()) +
+                            " point correspondences range it alone";
     return;
   }
   match::RegionOptions o = band == Band::infrared ? infrared_region_ : options_.region_options;

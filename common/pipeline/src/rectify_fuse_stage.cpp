@@ -73,11 +73,26 @@ RectifyFuseStage::RectifyFuseStage(const camera::Rig& rig, const PipelineGeometr
 RectifyFuseStage::~RectifyFuseStage() = default;
 
 void RectifyFuseStage::rectify_visible(Eye eye, const cv::Mat& raw, cv::Mat& out) const {
+  rectify_visible_as(eye, raw, out, options_.visible_mono);
+}
+
+const cv::Mat& RectifyFuseStage::fusion_visible(Eye eye, const cv::Mat& rectified,
+                                                const cv::Mat& raw) {
+  if (!options_.visible_mono) return rectified;
+  cv::Mat& colour = colour_visible_[eye == Eye::left ? 0 : 1];
+  rectify_visible_as(eye, raw, colour, false);
+  return colour;
+}
+
+void RectifyFuseStage::rectify_visible_as(Eye eye, const cv::Mat& raw, cv::Mat& out,
+                                          bool mono) const {
+  const std::size_t i = eye == Eye::left ? 0 : 1;
   const std::string& camera =
       eye == Eye::left ? geometry_.visible.left_camera : geometry_.visible.right_camera;
-  if (visible_bin_ == 1) return remap_into(visible_[eye], raw, out, camera);
-  // The remapper's own checks, on the raw image (it sees the binned one).
-  const cv::Size size = visible_raw_[eye == Eye::left ? 0 : 1];
+  const bool to_grey = mono && raw.type() == CV_8UC3;
+  if (visible_bin_ == 1 && !to_grey) return remap_into(visible_[eye], raw, out, camera);
+  // The remapper's own checks, on the raw image (it sees the grey or binned one).
+  const cv::Size size = visible_raw_[i];
   if (raw.empty()) throw std::invalid_argument(camera + ": remap: the input image is empty");
   if (raw.size() != size) {
     throw std::invalid_argument(camera + ": remap: input image is " + std::to_string(raw.cols) +
@@ -85,9 +100,17 @@ void RectifyFuseStage::rectify_visible(Eye eye, const cv::Mat& raw, cv::Mat& out
                                 std::to_string(size.width) + "x" + std::to_string(size.height) +
                                 " camera");
   }
-  cv::Mat& binned = binned_visible_[eye == Eye::left ? 0 : 1];
-  reduce_image(raw, visible_bin_, binned);
-  remap_into(visible_[eye], binned, out, camera);
+  // Binned first (the luma of the binned colour: a quarter of the conversion's pixels).
+  cv::Mat source = raw;
+  if (visible_bin_ > 1) {
+    reduce_image(source, visible_bin_, binned_visible_[i]);
+    source = binned_visible_[i];
+  }
+  if (to_grey) {
+    cv::cvtColor(source, grey_visible_[i], cv::COLOR_BGR2GRAY);
+    source = grey_visible_[i];
+  }
+  remap_into(visible_[eye], source, out, camera);
 }
 
 void RectifyFuseStage::rectify_infrared(Eye eye, const cv::Mat& raw, cv::Mat& out) const {

@@ -3,7 +3,8 @@
 // in the same run, on the paper rig's left cameras mapped onto the visible pair's grid as the
 // rectify-fuse service does: visible 1920x1080 BGR (CV_8UC3) and infrared 1024x768 raw
 // (CV_16UC1, 14-bit samples), at the pipeline's grid (scale 0.5, 936x566) and the full grid
-// (scale 1, 1870x1130). Seeded random images.
+// (scale 1, 1870x1130), and the visible camera's luma (CV_8UC1: rectify-fuse's
+// --visible-encoding mono8) at both. Seeded random images.
 // BM_Compare times both alternately in one loop and reports ours_ms, opencv_ms and
 // opencv_over_ours = time(cv::remap) / time(FastRemapper) (the speed-up; the machine is shared,
 // so compare within one run).
@@ -36,13 +37,17 @@ struct Case {
   cv::Size grid;
 };
 
-// 0: visible at scale 0.5, 1: infrared at 0.5, 2: visible at 1, 3: infrared at 1.
+constexpr int kCases = 6;
+
+// 0: visible at scale 0.5, 1: infrared at 0.5, 2: visible at 1, 3: infrared at 1, 4: the
+// visible's luma at 0.5, 5: at 1.
 const Case& get_case(int index) {
-  static std::array<std::unique_ptr<Case>, 4> cases;
+  static std::array<std::unique_ptr<Case>, kCases> cases;
   if (cases[index]) return *cases[index];
   const camera::Rig& rig = test::paper_rig();
-  const bool infrared = index % 2 == 1;
-  const double scale = index < 2 ? 0.5 : 1.0;
+  const bool infrared = index < 4 && index % 2 == 1;
+  const bool mono = index >= 4;
+  const double scale = index == 0 || index == 1 || index == 4 ? 0.5 : 1.0;
   const auto grid = camera::scaled(
       rectify::default_pair_grid(rig, rig.visible, camera::RectifiedProjection::equirectangular),
       scale);
@@ -52,7 +57,7 @@ const Case& get_case(int index) {
       rectify::build_map(cam, geometry.T_ref_left_rect, geometry.grid, 0.0),
       cam.model->image_size());
   auto c = std::make_unique<Case>();
-  c->image = cv::Mat(cam.model->image_size(), infrared ? CV_16UC1 : CV_8UC3);
+  c->image = cv::Mat(cam.model->image_size(), infrared ? CV_16UC1 : mono ? CV_8UC1 : CV_8UC3);
   cv::RNG(42).fill(c->image, cv::RNG::UNIFORM, 0, infrared ? (1 << 14) : 256);
   c->ours = std::make_unique<fpga::FastRemapper>(table);
   fpga::to_opencv_maps(table, c->cv_positions, c->cv_fractions);
@@ -62,8 +67,9 @@ const Case& get_case(int index) {
 }
 
 const char* case_name(int index) {
-  static const char* names[] = {"visible_bgr8_936x566", "infrared_raw16_936x566",
-                                "visible_bgr8_1870x1130", "infrared_raw16_1870x1130"};
+  static const char* names[] = {"visible_bgr8_936x566",   "infrared_raw16_936x566",
+                                "visible_bgr8_1870x1130", "infrared_raw16_1870x1130",
+                                "visible_mono8_936x566",  "visible_mono8_1870x1130"};
   return names[index];
 }
 
@@ -140,10 +146,10 @@ void BM_Compare(benchmark::State& state) {
   set_counters(state, c);
 }
 
-BENCHMARK(BM_Ours)->DenseRange(0, 3)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_OpenCv)->DenseRange(0, 3)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_CopyResizeFloor)->DenseRange(0, 3)->Unit(benchmark::kMillisecond);
-BENCHMARK(BM_Compare)->DenseRange(0, 3)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Ours)->DenseRange(0, kCases - 1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_OpenCv)->DenseRange(0, kCases - 1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_CopyResizeFloor)->DenseRange(0, kCases - 1)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_Compare)->DenseRange(0, kCases - 1)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

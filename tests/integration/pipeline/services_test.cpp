@@ -448,7 +448,13 @@ TEST(Services, RectifyFuseFusesOnlyWhileTheFusedTopicHasAReader) {
   for (std::uint64_t seq = 1; seq <= 3; ++seq) {
     raw.publish(seq);
     ASSERT_TRUE(receive<tv::GridStereoFrame>(
-        rectified, [&](const tv::GridStereoFrame& f) { return f.seq() == seq; }, 30s))
+        rectified,
+        [&](const tv::GridStereoFrame& f) {
+          // The luma by default (--visible-encoding mono8).
+          EXPECT_EQ(f.pixel_format(), tv::PIXEL_FORMAT_MONO8);
+          return f.seq() == seq;
+        },
+        30s))
         << rf.log();
   }
   const auto unread = h.wait_health(
@@ -473,12 +479,14 @@ TEST(Services, RectifyFuseFusesOnlyWhileTheFusedTopicHasAReader) {
 }
 
 // The display's fused image at --fused-rate-hz: captures 20 ms apart at 25 Hz are fused every
-// other one, every one rectified; with both eyes fused (fused-band matching) every capture.
+// other one, every one rectified; with both eyes fused (fused-band matching) every capture. The
+// fused image is in colour whether the rectified visible pair is (--visible-encoding bgr8, the
+// second run) or not.
 TEST(Services, RectifyFuseFusesAtTheFusedRateExceptForFusedBandMatching) {
   for (const bool both_eyes : {false, true}) {
     Harness h(tv::test::private_domain());
     std::vector<std::string> args = {"--fused-rate-hz", "25"};
-    if (both_eyes) args.insert(args.end(), {"--fused-eyes", "both"});
+    if (both_eyes) args.insert(args.end(), {"--fused-eyes", "both", "--visible-encoding", "bgr8"});
     ChildProcess& rf = h.start("thermovis-rectify-fuse", args);
     RawCaptures raw(h.participant());
     tv::transport::Reader<tv::GridStereoFrame> rectified(h.participant(), topics::kRectifiedVisible,
@@ -494,13 +502,21 @@ TEST(Services, RectifyFuseFusesAtTheFusedRateExceptForFusedBandMatching) {
     std::vector<std::uint64_t> fused_seqs;
     const auto take_fused = [&] {
       auto samples = fused.take();
-      for (std::size_t i = 0; i < samples.size(); ++i) fused_seqs.push_back(samples[i].seq());
+      for (std::size_t i = 0; i < samples.size(); ++i) {
+        EXPECT_EQ(samples[i].pixel_format(), tv::PIXEL_FORMAT_BGR8);
+        fused_seqs.push_back(samples[i].seq());
+      }
     };
     constexpr std::int64_t kPeriodNs = 20'000'000;
     for (std::uint64_t seq = 1; seq <= 40; ++seq) {
       raw.publish(seq, {1920, 1080}, static_cast<std::int64_t>(seq) * kPeriodNs);
       ASSERT_TRUE(receive<tv::GridStereoFrame>(
-          rectified, [&](const tv::GridStereoFrame& f) { return f.seq() == seq; }, 30s))
+          rectified,
+          [&](const tv::GridStereoFrame& f) {
+            EXPECT_EQ(f.pixel_format(), both_eyes ? tv::PIXEL_FORMAT_BGR8 : tv::PIXEL_FORMAT_MONO8);
+            return f.seq() == seq;
+          },
+          30s))
           << rf.log();
       fused.wait_for_data(200ms);
       take_fused();

@@ -9,6 +9,7 @@
 #include <string>
 
 #include <opencv2/core.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "thermovis/pipeline/capture_pipeline.hpp"
 #include "thermovis/runtime/rig_io.hpp"
@@ -278,6 +279,42 @@ TEST(CapturePipeline, BinnedVisibleCamerasRangeFinerOnThePipelineGrid) {
   std::cout << "visible, 15-60 m: mean |relative error| binned " << 100 * binned << " %, unbinned "
             << 100 * plain << " %\n";
   EXPECT_LT(binned, 0.85 * plain);
+}
+
+// The visible pair in grey (RectifyFuseOptions::visible_mono, the default) is the luma of the
+// pair rectified in colour: the luma is taken before the remap (after the binning) instead of
+// after it, so the two differ by the rounding of the one or the other, a grey level at most. The
+// fusion keeps the colour and gives the same image either way. Binned (the pipeline grid) and
+// not.
+TEST(CapturePipeline, TheGreyVisiblePairIsTheColourPairsLumaAndTheFusionKeepsItsColour) {
+  const auto rig = thermovis::runtime::load_rig(thermovis::runtime::default_rig_path());
+  const sim::SimulatedRig simulated(
+      rig, thermovis::runtime::load_scene(thermovis::runtime::shipped_scene_path("paper")), 2);
+  sim::FrameSet frames = simulated.allocate();
+  simulated.render(0, frames);
+  ASSERT_TRUE(pl::RectifyFuseOptions{}.visible_mono);
+  for (const bool bin : {true, false}) {
+    pl::CapturePipelineOptions grey, colour;
+    grey.fuse = colour.fuse = true;
+    grey.rectify.bin_visible = colour.rectify.bin_visible = bin;
+    colour.rectify.visible_mono = false;
+    pl::CapturePipeline grey_pipeline(rig, grey), colour_pipeline(rig, colour);
+    const pl::GridCapture g = grey_pipeline.rectify(raw_of(frames));
+    const pl::GridCapture c = colour_pipeline.rectify(raw_of(frames));
+    ASSERT_EQ(g.visible_left.type(), CV_8UC1);
+    ASSERT_EQ(c.visible_left.type(), CV_8UC3);
+    EXPECT_EQ(cv::norm(g.grey_left, g.visible_left, cv::NORM_INF), 0.0);
+    for (const auto& [mono, bgr] :
+         {std::pair{g.visible_left, c.visible_left}, std::pair{g.visible_right, c.visible_right}}) {
+      cv::Mat luma, diff;
+      cv::cvtColor(bgr, luma, cv::COLOR_BGR2GRAY);
+      cv::absdiff(mono, luma, diff);
+      EXPECT_LE(cv::norm(diff, cv::NORM_INF), 1.0) << "binned " << bin;
+      EXPECT_LT(cv::countNonZero(diff), diff.total() / 2) << "binned " << bin;
+    }
+    ASSERT_EQ(g.fused_left.type(), CV_8UC3);
+    EXPECT_EQ(cv::norm(g.fused_left, c.fused_left, cv::NORM_INF), 0.0) << "binned " << bin;
+  }
 }
 
 // A target's box on the grid from its surface points is its silhouette's there: inside the box

@@ -231,6 +231,35 @@ TEST(RangeStage, APairWhosePointsAlsoHoldTheOtherPairsRangeGivesWay) {
   EXPECT_GE(apart.range.sigma_m, 0.45 * (truth.distance_m - near.distance_m));
 }
 
+// Few points, or a nearer group among a box's points than their median's (a repeated texture
+// matched one period off): the region is aligned to choose between the groups. Points that
+// agree, a farther group (the background behind the target), or a near target's hundreds of
+// points: the points alone.
+TEST(MatchStage, AlignsTheRegionOfFewPointsOrOfPointsWithANearerGroup) {
+  const pl::MatchStage s = stage(pl::BandChoice::visible);
+  const auto points = [](std::vector<std::pair<int, double>> groups) {
+    thermovis::match::MatchResult r;
+    for (const auto& [count, disparity] : groups) {
+      for (int i = 0; i < count; ++i) {
+        thermovis::match::Correspondence c;
+        c.disparity_px = disparity + 0.01 * i;
+        r.matches.push_back(c);
+      }
+    }
+    return r;
+  };
+  EXPECT_TRUE(s.aligns(points({{11, 11.1}})));
+  EXPECT_FALSE(s.aligns(points({{20, 11.1}})));
+  EXPECT_TRUE(s.aligns(points({{9, 11.1}, {4, 16.6}})));     // one period off: nearer
+  EXPECT_FALSE(s.aligns(points({{10, 11.1}, {2, 16.6}})));   // two strays: no group
+  EXPECT_FALSE(s.aligns(points({{9, 11.1}, {6, 5.0}})));     // the background: farther
+  EXPECT_TRUE(s.aligns(points({{6, 11.1}, {9, 5.0}})));      // the target a minority in front
+  EXPECT_FALSE(s.aligns(points({{30, 11.1}, {10, 16.6}})));  // a near target's many points
+  pl::MatchStageOptions none;
+  none.region = false;
+  EXPECT_FALSE(pl::MatchStage(geometry(), none).aligns(points({{3, 11.1}})));
+}
+
 TEST(MatchStage, AlignsEachBoxsWholeRegionOnEveryPair) {
   const Pairs pairs(12);
   // By default a box with 12 points or more is ranged from its points alone.

@@ -33,7 +33,8 @@ struct RawCapture {
 
 // One capture on the grid, as the services publish it.
 struct GridCapture {
-  cv::Mat visible_left, visible_right;    // the raw visible type
+  cv::Mat visible_left,
+      visible_right;  // the raw visible type (grey: RectifyFuseOptions::visible_mono)
   cv::Mat infrared_left, infrared_right;  // the raw infrared type (counts)
   cv::Mat fused_left;                     // with CapturePipelineOptions::fuse
   cv::Mat grey_left, grey_right;          // the visible pair as the matcher reads it

@@ -47,6 +47,15 @@ struct MatchStageOptions {
   // one translation fits a near target's depth less well; it also keeps the stage's CPU in the
   // real-time budget.
   int region_below_points = 12;
+  // Boxes with fewer points than this are also aligned when their points hold a nearer group
+  // than their median's: at least 3 of them more than a window above the median disparity (6 %
+  // of it, at least 0.5 px: the range's group window). The range's screen keeps the nearest
+  // dense group, right when the target is in front of a background seen in its box, wrong when a
+  // few points matched one period off on a repeated texture (a striped shirt): the region's
+  // range chooses between the groups (RangeStage). Points whose other group is farther (the
+  // background behind a target that holds most of them) are left to the screen, and near
+  // targets, with hundreds of points, keep their points alone.
+  int region_split_below_points = 36;
   match::RegionOptions region_options;  // its disparity range is set like the points'
 };
 
@@ -100,9 +109,11 @@ class MatchStage {
                               const cv::Rect& box, const cv::Mat& infrared_left = cv::Mat(),
                               std::pair<double, double> height_m = {0, 0}) const;
 
- private:
-  // Whether a box with these points gets a whole-region alignment (region_below_points).
+  // Whether a box with these points gets a whole-region alignment (region_below_points,
+  // region_split_below_points).
   bool aligns(const match::MatchResult& result) const;
+
+ private:
   // The whole-region alignment of `box` into result.region (with MatchStageOptions::region).
   void align(Band band, const cv::Mat& left8, const cv::Mat& right8, const cv::Rect& box,
              const cv::Mat& silhouette, std::pair<double, double> height_m,

@@ -39,6 +39,11 @@ struct RectifyFuseOptions {
   // Bin the visible cameras' raw images to about the grid's px per rad before the remap when
   // they have twice its or more (2 x 2 on the pipeline grid).
   bool bin_visible = true;
+  // The rectified visible pair in grey (CV_8UC1, the luma of OpenCV's BGR2GRAY taken from the
+  // raw image before the remap) instead of the raw image's colour: every stage of the pipeline
+  // works on the luma, and one byte per pixel costs a third of the remap's writes. The fusion
+  // keeps its colour (rectify_visible_colour).
+  bool visible_mono = true;
 };
 
 class RectifyFuseStage {
@@ -55,7 +60,13 @@ class RectifyFuseStage {
   // `out` is reused when it has the band's image size (PipelineGeometry::image_size: the grid,
   // the infrared's reduced by its reduction) and the input's type (a loaned sample's buffer).
   // Throws std::invalid_argument naming the camera for a wrong size or type.
+  // The visible image is grey with RectifyFuseOptions::visible_mono, else the raw image's type.
   void rectify_visible(Eye eye, const cv::Mat& raw, cv::Mat& out) const;
+  bool visible_mono() const { return options_.visible_mono; }
+  // The visible image the fusion takes: `rectified` (rectify_visible's), or under visible_mono
+  // `raw` rectified again in its own colour (into a buffer of the stage's, valid until the next
+  // call for the eye).
+  const cv::Mat& fusion_visible(Eye eye, const cv::Mat& rectified, const cv::Mat& raw);
   void rectify_infrared(Eye eye, const cv::Mat& raw, cv::Mat& out) const;
   // The gain-controlled (CV_8UC1) image of rectified infrared counts; updates the eye's mapping.
   cv::Mat gain_control(Eye eye, const cv::Mat& infrared);
@@ -64,6 +75,8 @@ class RectifyFuseStage {
   void fuse(Eye eye, const cv::Mat& infrared, const cv::Mat& visible, cv::Mat& fused);
 
  private:
+  void rectify_visible_as(Eye eye, const cv::Mat& raw, cv::Mat& out, bool mono) const;
+
   struct Eyes {
     std::unique_ptr<fpga::FastRemapper> left, right;
     const fpga::FastRemapper& operator[](Eye eye) const {
@@ -76,6 +89,8 @@ class RectifyFuseStage {
   int visible_bin_ = 1;                            // raw visible px per binned px, each way
   std::vector<cv::Size> visible_raw_;              // the visible cameras' sizes, left, right
   mutable std::array<cv::Mat, 2> binned_visible_;  // per eye (the eyes may run on two threads)
+  mutable std::array<cv::Mat, 2> grey_visible_;    // per eye, the raw image's luma
+  std::array<cv::Mat, 2> colour_visible_;          // per eye, fusion_visible's under visible_mono
   std::array<enhance::InfraredAgc, 2> agc_;
 };
 
