@@ -55,11 +55,12 @@ range::TargetRange RangeStage::range_entry(const TargetEntry& entry, double& sha
       1e-3 * grid_px_per_rad_ *
       (entry.band == Band::infrared ? options_.region_floor_infrared_mrad
                                     : options_.region_floor_visible_mrad);
-  if (entry.band == Band::infrared) {
-    options.systematic_disparity_px = 1e-3 * grid_px_per_rad_ * options_.points_floor_infrared_mrad;
-    // The infrared patches were correlated on the reduced image: their reach in grid px.
-    options.contour_reach_px *= infrared_reduction_;
-  }
+  options.systematic_disparity_px =
+      1e-3 * grid_px_per_rad_ *
+      (entry.band == Band::infrared ? options_.points_floor_infrared_mrad
+                                    : options_.points_floor_visible_mrad);
+  // The infrared patches were correlated on the reduced image: their reach in grid px.
+  if (entry.band == Band::infrared) options.contour_reach_px *= infrared_reduction_;
   if (!options_.surface) options.shape = range::TargetShape::for_class(entry.label);
   shared_sigma_m = options.shape.empty() ? 0.0 : options.shape_sigma_m;
   const double to_centre = options_.surface ? 0.0 : range::surface_to_centre_m(entry.label);

@@ -33,22 +33,23 @@ struct RangeStageOptions {
   range::RangeOptions range;
   bool surface = false;  // report the distance of the visible surface, not the target's centre
   RangeEstimate estimate = RangeEstimate::both;
-  // range.region_systematic_disparity_px per pair, as an angle (mrad; on the grid it is this
-  // times the grid's px per rad, so the floor stays the cameras' own on any --grid-scale: the
-  // infrared camera's pixel is the grid's at scale 0.5 and two of its at 1.0). The visible
-  // region is masked by the infrared silhouette and sees the background's texture around its
-  // outline. 0.18 mrad is 0.15 px of the visible camera (835 px/rad), 0.12 mrad 0.05 px of the
-  // infrared's (416 px/rad): with them 60-90 % of the region-ranged errors fall within one sigma
-  // on either grid (`thermovis bench ranging --grid-scale 0.5|1.0`, 40-100 m).
-  double region_floor_visible_mrad = 0.18;
-  double region_floor_infrared_mrad = 0.12;
-  // The infrared pair's points' systematic floor (range.systematic_disparity_px for that pair),
-  // also an angle: 0.06 mrad is 0.025 px of the infrared camera, 0.025 grid px at --grid-scale
-  // 0.5 and 0.05 at 1.0. The visible points keep range.systematic_disparity_px in grid px (an
-  // interpolation effect of the grid; as an angle their errors grew on the pipeline grid).
-  // With 0.05 grid px on both grids 78 % of the infrared errors fell within one sigma on the
-  // pipeline grid and 67 % on the full one; with the angle 67 % on both (`thermovis report`).
-  double points_floor_infrared_mrad = 0.06;
+  // The pairs' systematic disparity floors, as angles (mrad; on the grid each is this times the
+  // grid's px per rad, so a floor stays the cameras' own on any --grid-scale: the infrared
+  // camera's pixel is the grid's at scale 0.5 and two of its at 1.0, and the visible cameras are
+  // binned to the grid's on the pipeline grid). The whole region's floor
+  // (range.region_systematic_disparity_px; the visible region is masked by the infrared
+  // silhouette and sees the background's texture around its outline) and the points' floor
+  // (range.systematic_disparity_px). 0.13 / 0.06 mrad are 0.11 / 0.05 px of the visible camera
+  // (835 px/rad), 0.15 / 0.08 mrad 0.06 / 0.03 px of the infrared's (416 px/rad). Set with
+  // `thermovis bench ranging --trials 10 --seed 1|2|3 --mode all --grid-scale 0.5|1.0`, 5-100 m:
+  // 64-74 % of each mode's errors within one sigma over all distances, 57-87 % per distance
+  // (one distance's 30 trials: +-8.5 %). Before (0.18 / 0.05 grid px / 0.12 / 0.06) the binned
+  // visible pair had 81 % on the pipeline grid and the infrared 43 % at 60 m; the visible
+  // points' floor in grid px had suited the unbinned pipeline grid.
+  double region_floor_visible_mrad = 0.13;
+  double region_floor_infrared_mrad = 0.15;
+  double points_floor_visible_mrad = 0.06;
+  double points_floor_infrared_mrad = 0.08;
 };
 
 // One pair's measurement of a target: the box it was matched in (left image of the grid) and
