@@ -444,14 +444,25 @@ std::vector<Obstacle> ObstacleDetector::cluster(const std::vector<Stixel>& stixe
     }
     out.push_back(o);
   };
+  const auto tolerance = [&](double a_m, double b_m) {
+    return options_.cluster_tolerance_m + options_.cluster_tolerance_share * std::min(a_m, b_m);
+  };
   for (std::size_t i = 1; i <= stixels.size(); ++i) {
     if (i < stixels.size()) {
       const Stixel& a = stixels[i - 1];
       const Stixel& b = stixels[i];
-      const double tol = options_.cluster_tolerance_m +
-                         options_.cluster_tolerance_share * std::min(a.distance_m, b.distance_m);
+      // Near its neighbour, and near the median of the obstacle's last five stixels: the one or
+      // two mixed stixels where a nearer object covers part of a farther one (blocks straddling
+      // both) range in between and would otherwise chain the two into one.
+      std::array<double, 5> last{};
+      std::size_t n = 0;
+      for (std::size_t j = i; j > start && n < last.size(); --j)
+        last[n++] = stixels[j - 1].distance_m;
+      std::sort(last.begin(), last.begin() + static_cast<std::ptrdiff_t>(n));
+      const double recent_m = last[n / 2];
       if (b.column - a.column - 1 <= options_.max_cluster_gap_columns &&
-          std::abs(a.distance_m - b.distance_m) <= tol) {
+          std::abs(a.distance_m - b.distance_m) <= tolerance(a.distance_m, b.distance_m) &&
+          std::abs(recent_m - b.distance_m) <= tolerance(recent_m, b.distance_m)) {
         continue;
       }
     }

@@ -132,6 +132,33 @@ TEST(ObstacleDetector, ABoxOnTheRoadIsFoundAtItsDistance) {
   EXPECT_NEAR(r.free_space_m[static_cast<std::size_t>(centre.x())], box.distance_m, 0.3);
 }
 
+// A person 18 m away passing behind one 15 m away: the blocks across the nearer one's edge
+// range in between (a sliver at 16.5 m here, two columns wide), and each neighbour is within
+// the clustering tolerance of the next. Two obstacles, each at its own distance, not one that
+// spans both at the nearer's.
+TEST(ObstacleDetector, MixedColumnsAtAnEdgeDoNotChainANearAndAFarObject) {
+  const ob::ObstacleDetector d = synthetic_detector();
+  const double column_rad =
+      1.0 / cam::RectifiedCamera(d.reduced_grid(ob::PairBand::visible)).intrinsics().f;
+  const double edge = std::atan(1.0 / 15.0);  // the near person's right edge
+  const double sliver_end = edge + 2 * column_rad;
+  const std::vector<Face> faces = {
+      {15.0, 0.0, 1.0, 1.75},
+      {16.5, 16.5 * std::tan(edge), 16.5 * std::tan(sliver_end), 1.75},
+      {18.0, 18.0 * std::tan(sliver_end), 18.0 * std::tan(sliver_end) + 1.0, 1.75}};
+  const ob::PairObstacles r =
+      d.from_disparity(ob::PairBand::visible, synthetic_disparity(d, faces));
+  ASSERT_TRUE(r.ok()) << r.ground.message;
+  const auto near_to = [&](double distance_m) {
+    return std::count_if(r.obstacles.begin(), r.obstacles.end(), [&](const ob::Obstacle& o) {
+      return std::abs(o.distance_m - distance_m) < 0.05 * distance_m;
+    });
+  };
+  for (const auto& o : r.obstacles) std::cout << o.distance_m << " m, " << o.box << "\n";
+  EXPECT_EQ(near_to(15.0), 1);
+  EXPECT_EQ(near_to(18.0), 1);
+}
+
 TEST(ObstacleDetector, ARightEyeOffTheGridsAxisIsTriangulatedWhereItIs) {
   // The pipeline's infrared pair: its right eye 0.35 m along the grid's x axis and 67 mm off
   // it. A box 37-39 deg to the right, where taking the eye as on the axis would move it by
