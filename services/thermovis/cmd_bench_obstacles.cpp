@@ -48,9 +48,10 @@ struct Options {
   bool json = false;
   std::string dump;  // folder: the first capture of each scene drawn
   bool share_ground = false;
-  bool no_fixed_pattern = false;     // the infrared cameras without their per-pixel offsets
-  bool track_ground = false;         // each pair's ground searched about the last capture's
-  double texture_noise_factor = -1;  // >= 0: DenseOptions::texture_noise_factor
+  bool no_fixed_pattern = false;            // the infrared cameras without their per-pixel offsets
+  bool track_ground = false;                // each pair's ground searched about the last capture's
+  double texture_noise_factor = -1;         // >= 0: DenseOptions::texture_noise_factor
+  double counts_texture_noise_factor = -1;  // >= 0: ObstacleOptions::counts_texture_noise_factor
   pl::GridOptions grid;
 };
 
@@ -201,6 +202,9 @@ int run_bench_obstacles(const Options& opt) {
   obstacle_options.dense.method = ob::parse_dense_method(opt.method);
   if (opt.texture_noise_factor >= 0) {
     obstacle_options.dense.texture_noise_factor = opt.texture_noise_factor;
+  }
+  if (opt.counts_texture_noise_factor >= 0) {
+    obstacle_options.counts_texture_noise_factor = opt.counts_texture_noise_factor;
   }
   obstacle_options.share_ground = opt.share_ground;
   ob::GroundPrior prior;
@@ -423,6 +427,8 @@ THERMOVIS_COMMAND(
       app.add_option("--texture-noise-factor", opt->texture_noise_factor,
                      "block matching: a block's texture at least this many times its noise's "
                      "(0: the fixed threshold alone; default: the detector's)");
+      app.add_option("--counts-texture-noise-factor", opt->counts_texture_noise_factor,
+                     "the same for the infrared pair's counts (default: the detector's)");
       app.add_flag("--track-ground", opt->track_ground,
                    "each pair's ground searched about the last capture's (GroundTracks)");
       app.add_flag("--json", opt->json, "one JSON object");
