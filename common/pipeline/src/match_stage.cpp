@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
+#include "thermovis/range/ranging.hpp"
 #include "thermovis/util/enum_names.hpp"
 
 namespace thermovis::pipeline {
@@ -169,9 +170,10 @@ bool MatchStage::aligns(const match::MatchResult& result) const {
   const int n = static_cast<int>(result.matches.size());
   if (n < options_.region_below_points) return true;
   if (n >= options_.region_split_below_points) return false;
-  // A nearer group than the median's: what the range's screen would keep.
+  // A nearer group than the median's: what the range's screen would keep, with its window.
+  static const range::RangeOptions screen;
   const double median = median_disparity(result);
-  const double window = std::max(0.5, 0.06 * median);
+  const double window = std::max(screen.group_disparity_px, screen.group_relative * median);
   int nearer = 0;
   for (const auto& c : result.matches) nearer += c.disparity_px > median + window;
   return nearer >= 3;

@@ -48,13 +48,13 @@ struct MatchStageOptions {
   // real-time budget.
   int region_below_points = 12;
   // Boxes with fewer points than this are also aligned when their points hold a nearer group
-  // than their median's: at least 3 of them more than a window above the median disparity (6 %
-  // of it, at least 0.5 px: the range's group window). The range's screen keeps the nearest
-  // dense group, right when the target is in front of a background seen in its box, wrong when a
-  // few points matched one period off on a repeated texture (a striped shirt): the region's
-  // range chooses between the groups (RangeStage). Points whose other group is farther (the
-  // background behind a target that holds most of them) are left to the screen, and near
-  // targets, with hundreds of points, keep their points alone.
+  // than their median's: at least 3 of them more than a window above the median disparity (the
+  // range's group window, range::RangeOptions' defaults: 6 % of it, at least 0.5 px). The range's
+  // screen keeps the nearest dense group, right when the target is in front of a background seen in
+  // its box, wrong when a few points matched one period off on a repeated texture (a striped
+  // shirt): the region's range chooses between the groups (RangeStage). Points whose other group is
+  // farther (the background behind a target that holds most of them) are left to the screen, and
+  // near targets, with hundreds of points, keep their points alone.
   int region_split_below_points = 36;
   match::RegionOptions region_options;  // its disparity range is set like the points'
 };

@@ -6,8 +6,8 @@
 // point (fpga/remap.hpp: bit-exact with the FPGA model), from the raw image or, for a visible
 // camera with twice the grid's px per rad or more, from it binned to about the grid's
 // (RectifyFuseOptions::bin_visible). Pixel formats:
-//  - visible: raw CV_8UC3 (BGR) or CV_8UC1 of the visible camera's size -> the same type on the
-//    grid;
+//  - visible: raw CV_8UC3 (BGR) or CV_8UC1 of the visible camera's size -> CV_8UC1 on the grid
+//    (RectifyFuseOptions::visible_mono, the default), else the raw type;
 //  - infrared: raw CV_16UC1 counts (or CV_8UC1) of the infrared camera's size -> the same type on
 //    the grid: the counts are kept (detection thresholds on temperature, matching stretches each
 //    box's surroundings itself);
@@ -40,9 +40,9 @@ struct RectifyFuseOptions {
   // they have twice its or more (2 x 2 on the pipeline grid).
   bool bin_visible = true;
   // The rectified visible pair in grey (CV_8UC1, the luma of OpenCV's BGR2GRAY taken from the
-  // raw image before the remap) instead of the raw image's colour: every stage of the pipeline
-  // works on the luma, and one byte per pixel costs a third of the remap's writes. The fusion
-  // keeps its colour (rectify_visible_colour).
+  // binned raw image before the remap) instead of the raw image's colour: every stage of the
+  // pipeline works on the luma, and one byte per pixel costs a third of the remap's writes. The
+  // fusion keeps its colour (fusion_visible).
   bool visible_mono = true;
 };
 
