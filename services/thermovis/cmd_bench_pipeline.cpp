@@ -271,7 +271,8 @@ int run_bench(Options& opt) {
       processes[p.service] = {
           {"cpu_percent",
            std::isfinite(p.cpu_percent) ? nlohmann::json(p.cpu_percent) : nlohmann::json()},
-          {"rss_mb", p.rss_mb}};
+          {"rss_mb", p.rss_mb},
+          {"scheduling", p.scheduling}};
     }
     j["processes"] = processes;
     const auto number = [](double v) {
@@ -314,7 +315,7 @@ int run_bench(Options& opt) {
     for (const auto& p : cpu) {
       std::cout << "  process " << std::setw(13) << std::left << p.service << std::right << " cpu "
                 << std::fixed << std::setprecision(1) << std::setw(6) << p.cpu_percent << " %  rss "
-                << std::setw(7) << p.rss_mb << " MB\n";
+                << std::setw(7) << p.rss_mb << " MB  " << p.scheduling << "\n";
     }
     std::cout << "  CPU per capture (" << budget.captures << " captures, " << budget.answered
               << " answered):";

@@ -2,6 +2,7 @@
 
 #include "truth_match.hpp"
 
+#include <sched.h>
 #include <unistd.h>
 
 #include <csignal>
@@ -89,6 +90,18 @@ bool read_group_usage(int pgid, double& cpu_s, double& rss_bytes) {
     any = true;
   }
   return any;
+}
+
+// The scheduling policy of a process as the manifest names it: "fifo N", "idle", "normal";
+// "" when it is gone.
+std::string read_scheduling(int pid) {
+  std::vector<std::string> f;
+  if (pid <= 0 || !read_stat(std::to_string(pid), f) || f.size() < 41 - 2) return "";
+  const int policy = std::stoi(f[41 - 3]);
+  if (policy == SCHED_FIFO) return "fifo " + f[40 - 3];
+  if (policy == SCHED_RR) return "rr " + f[40 - 3];
+  if (policy == SCHED_IDLE) return "idle";
+  return "normal";
 }
 
 std::string fixed(double value, int digits) {
@@ -387,6 +400,7 @@ std::vector<ProcessCpu> CpuMarks::since(const std::vector<process::ServiceStatus
       p.cpu_s = known ? cpu_s - from.cpu_s : std::nan("");
       p.cpu_percent = known ? 100.0 * p.cpu_s / wall : std::nan("");
       p.rss_mb = rss / 1e6;
+      p.scheduling = read_scheduling(status.pid);
     }
     out.push_back(p);
   }

@@ -118,6 +118,7 @@ struct ProcessCpu {
   double cpu_percent = 0.0;  // user + system time over wall time since the last mark, % of a core
   double cpu_s = 0.0;        // user + system time since the last mark, s (NaN: unknown)
   double rss_mb = 0.0;       // resident memory now
+  std::string scheduling;    // its policy now: "normal", "idle", "fifo 10" ("": gone)
 };
 
 // CPU of processes since a mark, by pid: a process started since (restarted) has no mark and

@@ -45,7 +45,7 @@ Manifest parse_manifest(const std::string& yaml_text, const std::string& src) {
   for (const auto& node : services) {
     check_keys(src, node, "service",
                {"name", "command", "env", "restart", "depends_on", "backoff", "stop_timeout_s",
-                "nice", "idle"});
+                "nice", "idle", "realtime"});
     ServiceSpec spec;
     spec.name = as_string(src, require(src, node, "service", "name"), "service.name");
     const std::string ctx = "services." + spec.name;
@@ -101,6 +101,17 @@ Manifest parse_manifest(const std::string& yaml_text, const std::string& src) {
       }
     }
     if (node["idle"]) spec.idle = runtime::as_bool(src, node["idle"], ctx + ".idle");
+    if (node["realtime"]) {
+      spec.realtime = runtime::as_int(src, node["realtime"], ctx + ".realtime");
+      if (spec.realtime < 0 || spec.realtime > 99) {
+        throw ConfigError(where(src, node["realtime"]) + ": " + ctx + ".realtime: " +
+                          std::to_string(spec.realtime) + " is not in [0, 99] (0: not realtime)");
+      }
+      if (spec.realtime > 0 && (spec.idle || spec.nice != 0)) {
+        throw ConfigError(where(src, node["realtime"]) + ": " + ctx +
+                          ": realtime excludes idle and nice (one scheduling policy)");
+      }
+    }
     manifest.services.push_back(std::move(spec));
   }
   try {

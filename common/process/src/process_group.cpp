@@ -106,6 +106,13 @@ void ProcessGroup::spawn(Entry& e) {
                                           : options_.log_dir / (e.spec.name + ".log");
   const std::string log = e.status.log.string();
 
+  // Written by the child if its realtime policy is refused (composed here: the child of a
+  // threaded process must not allocate between fork and exec).
+  const std::string realtime_refused =
+      "thermovis-supervisor: realtime priority " + std::to_string(e.spec.realtime) +
+      " refused (needs CAP_SYS_NICE or an rtprio limit, docs/deployment.md): runs at the normal "
+      "policy\n";
+
   // exec failures travel back through a close-on-exec pipe.
   int report[2];
   if (pipe2(report, O_CLOEXEC) != 0)
@@ -132,6 +139,14 @@ void ProcessGroup::spawn(Entry& e) {
     if (e.spec.idle) {
       const sched_param idle{};
       (void)!sched_setscheduler(0, SCHED_IDLE, &idle);
+    }
+    if (e.spec.realtime > 0) {
+      sched_param fifo{};
+      fifo.sched_priority = e.spec.realtime;
+      if (sched_setscheduler(0, SCHED_FIFO, &fifo) != 0) {
+        // Into the service's log, before its own lines: it runs, at the normal policy.
+        (void)!write(STDERR_FILENO, realtime_refused.data(), realtime_refused.size());
+      }
     }
     execvpe(c_argv[0], c_argv.data(), c_env.data());
     const int err = errno;

@@ -44,6 +44,22 @@ TEST(Manifest, ReadsABestEffortServicesScheduling) {
             std::string::npos);
 }
 
+TEST(Manifest, ReadsAFramePathStagesRealtimePriority) {
+  const auto m = tp::parse_manifest(
+      "services:\n  - {name: match, command: [a], realtime: 10}\n  - {name: b, command: [b]}\n",
+      "m.yaml");
+  EXPECT_EQ(m.services[0].realtime, 10);
+  EXPECT_EQ(m.services[1].realtime, 0);
+  EXPECT_NE(error_of("services:\n  - {name: a, command: [x], realtime: 100}\n")
+                .find("a.realtime: 100 is not in [0, 99]"),
+            std::string::npos);
+  EXPECT_NE(error_of("services:\n  - {name: a, command: [x], realtime: -1}\n").find("m.yaml:2"),
+            std::string::npos);
+  EXPECT_NE(error_of("services:\n  - {name: a, command: [x], realtime: 5, idle: true}\n")
+                .find("realtime excludes idle"),
+            std::string::npos);
+}
+
 TEST(Manifest, SubstitutesKnownVariablesOnly) {
   EXPECT_EQ(tp::substitute("${bin}/x --d ${domain} ${other}", {{"bin", "/b"}, {"domain", "7"}}),
             "/b/x --d 7 ${other}");

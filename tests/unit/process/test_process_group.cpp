@@ -3,10 +3,14 @@
 #include <sched.h>
 #include <signal.h>
 #include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <cerrno>
 #include <chrono>
+#include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
 #include <thread>
 #include <vector>
@@ -137,6 +141,83 @@ TEST(ProcessGroup, ServicesRunWithTheirNicenessOrTheIdlePolicy) {
   EXPECT_EQ(sched_getscheduler(idle), SCHED_IDLE);
   EXPECT_EQ(sched_getscheduler(plain), sched_getscheduler(0));
   group.stop_all();
+}
+
+namespace {
+
+// Starts one `realtime: 7` service (/bin/sleep) in `log_dir` and returns what it runs with: the
+// policy, the priority and its log's text (the child writes a refusal there).
+struct RealtimeOutcome {
+  int policy = -1;
+  int priority = -1;
+  std::string log;
+};
+RealtimeOutcome start_realtime_service(const std::filesystem::path& log_dir) {
+  tp::Manifest m;
+  m.services.push_back(service("fast", {"/bin/sleep", "30"}, tp::RestartPolicy::never));
+  m.services.back().realtime = 7;
+  tp::ProcessGroup group(m, {{}, log_dir, {}});
+  group.start_all();
+  const pid_t pid = group.status("fast").pid;
+  poll_until(group, [&] {
+    std::ifstream comm("/proc/" + std::to_string(pid) + "/comm");
+    std::string text;
+    return std::getline(comm, text) && text == "sleep";
+  });
+  RealtimeOutcome out;
+  out.policy = sched_getscheduler(pid);
+  sched_param param{};
+  if (sched_getparam(pid, &param) == 0) out.priority = param.sched_priority;
+  group.stop_all();
+  std::ifstream log(log_dir / "fast.log");
+  out.log.assign(std::istreambuf_iterator<char>(log), std::istreambuf_iterator<char>());
+  return out;
+}
+
+// Whether this process may take SCHED_FIFO (tried in a child that exits at once).
+bool fifo_permitted() {
+  const pid_t pid = fork();
+  if (pid == 0) {
+    sched_param fifo{};
+    fifo.sched_priority = 7;
+    _exit(sched_setscheduler(0, SCHED_FIFO, &fifo) == 0 ? 0 : 1);
+  }
+  int status = 0;
+  waitpid(pid, &status, 0);
+  return WIFEXITED(status) && WEXITSTATUS(status) == 0;
+}
+
+}  // namespace
+
+// A frame-path stage runs SCHED_FIFO at its priority where that is permitted; where it is not,
+// it still runs, at the normal policy, and its log says why.
+TEST(ProcessGroup, RealtimeServicesRunFifoOrSayWhyNot) {
+  const auto dir = thermovis::test::temp_dir("process_group_realtime");
+  const RealtimeOutcome here = start_realtime_service(dir / "here");
+  if (fifo_permitted()) {
+    EXPECT_EQ(here.policy, SCHED_FIFO);
+    EXPECT_EQ(here.priority, 7);
+    EXPECT_EQ(here.log.find("refused"), std::string::npos) << here.log;
+  } else {
+    EXPECT_EQ(here.policy, SCHED_OTHER);
+    EXPECT_NE(here.log.find("realtime priority 7 refused"), std::string::npos) << here.log;
+  }
+  if (geteuid() != 0) return;  // the refusal is covered above
+  // As an unprivileged user (nobody: no CAP_SYS_NICE, rtprio limit 0), in a child process.
+  std::filesystem::create_directories(dir / "nobody");
+  std::filesystem::permissions(dir / "nobody", std::filesystem::perms::all);
+  const pid_t pid = fork();
+  if (pid == 0) {
+    if (setgid(65534) != 0 || setuid(65534) != 0) _exit(2);
+    const RealtimeOutcome nobody = start_realtime_service(dir / "nobody");
+    const bool refused = nobody.policy == SCHED_OTHER &&
+                         nobody.log.find("realtime priority 7 refused") != std::string::npos;
+    _exit(refused ? 0 : 1);
+  }
+  int status = 0;
+  waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0) << "as nobody: 1 = not refused or not logged, 2 = setuid";
 }
 
 TEST(ProcessGroup, ServiceIgnoringSigtermIsKilledAfterItsTimeout) {

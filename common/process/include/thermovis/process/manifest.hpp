@@ -33,6 +33,12 @@ struct ServiceSpec {
   // pipeline's stages take the CPU first.
   int nice = 0;
   bool idle = false;
+  // `realtime` N in 1..99: SCHED_FIFO at priority N (0: the normal policy), for the stages a
+  // capture waits for. Such a process is not preempted by the machine's other work (a
+  // best-effort display, the kernel's housekeeping threads, other programs); it needs
+  // CAP_SYS_NICE or an RLIMIT_RTPRIO of N (limits.conf `rtprio`), and without it the service
+  // runs at the normal policy and says so in its log. Its threads inherit it.
+  int realtime = 0;
 };
 
 struct Manifest {

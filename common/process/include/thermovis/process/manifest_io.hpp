@@ -11,6 +11,7 @@
 //       stop_timeout_s: 3
 //       nice: 0                    # -20..19, added to the supervisor's; a display: 10
 //       idle: false                # true: SCHED_IDLE, only CPU time nothing else wants
+//       realtime: 0                # 1..99: SCHED_FIFO at this priority (the frame path's stages)
 #include <filesystem>
 #include <string>
 
