@@ -73,6 +73,15 @@ bool BridgeNode::publish_capture(std::int64_t index) {
   return true;
 }
 
+void BridgeNode::report_preparing(std::int64_t index) {
+  // Twice a second at 50 Hz, and once when it ends: each is a health sample of its own.
+  if (!preparing_ || index % 25 != 0) return;
+  const std::string what = source_->preparing();
+  preparing_ = !what.empty();
+  health_.set_state(HEALTH_OK,
+                    preparing_ ? std::string(node::kSourcePreparing) + what : "processing");
+}
+
 void BridgeNode::run() {
   using Clock = std::chrono::steady_clock;
   const auto period = std::chrono::duration_cast<Clock::duration>(
@@ -85,6 +94,7 @@ void BridgeNode::run() {
     if (paced) std::this_thread::sleep_until(next);
     const std::uint64_t dropped_before = stats_.dropped;
     if (!publish_capture(index)) break;
+    report_preparing(index);
     health_.tick();
     if (!paced) {
       // A dropped capture never reached the source's wait: give readers a moment to return a

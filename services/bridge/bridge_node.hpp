@@ -40,6 +40,8 @@ class BridgeNode {
 
  private:
   bool publish_capture(std::int64_t index);
+  // The health message while the source prepares (FrameSource::preparing), then "processing".
+  void report_preparing(std::int64_t index);
 
   std::unique_ptr<FrameSource> source_;
   BridgeConfig config_;
@@ -47,6 +49,7 @@ class BridgeNode {
   transport::Writer<InfraredStereoFrame> infrared_;
   node::HealthReporter health_;
   BridgeStats stats_;
+  bool preparing_ = true;  // until the source said it no longer prepares
 };
 
 }  // namespace thermovis::bridge

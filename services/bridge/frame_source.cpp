@@ -160,6 +160,11 @@ class SimSource final : public FrameSource {
   cv::Size infrared_size() const override {
     return sim_.camera(sim::Slot::infrared_left).model->image_size();
   }
+  std::string preparing() const override {
+    const std::size_t done = prerendered_.load(std::memory_order_acquire);
+    if (done >= cache_.size()) return {};
+    return std::to_string(done) + " of " + std::to_string(cache_.size()) + " captures prerendered";
+  }
   bool fill(std::int64_t index, sim::FrameSet& out) override {
     if (cache_.empty()) {
       sim_.render(index, out);
@@ -208,13 +213,15 @@ class SimSource final : public FrameSource {
     for (std::size_t k = 0; k < cache_.size() && !stop_; ++k) {
       sim_.render(static_cast<std::int64_t>(k), cache_[k]);
       ready_[k].store(true, std::memory_order_release);
+      prerendered_.store(k + 1, std::memory_order_release);
     }
   }
 
   sim::SimulatedRig sim_;
   std::vector<sim::FrameSet> cache_;  // images over block_
   FrameBlock block_;
-  std::vector<std::atomic<bool>> ready_;  // cache_[k] rendered (written once, then read only)
+  std::vector<std::atomic<bool>> ready_;     // cache_[k] rendered (written once, then read only)
+  std::atomic<std::size_t> prerendered_{0};  // frames 0..prerendered_-1 are ready
   std::atomic<bool> stop_{false};
   std::thread prerender_;
 };

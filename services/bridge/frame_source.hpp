@@ -34,6 +34,10 @@ class FrameSource {
   virtual std::optional<std::int64_t> capture_time_ns() const { return std::nullopt; }
   // Captures the source itself lost before the bridge could take them (e.g. a ring overrun).
   virtual std::uint64_t skipped() const { return 0; }
+  // While the source still prepares its captures in the background and costs more than in its
+  // steady state (the simulated rig rendering live what it has not prerendered yet): what it
+  // has done, e.g. "37 of 100 captures prerendered". Empty once it runs as it will.
+  virtual std::string preparing() const { return {}; }
 };
 
 struct SourceOptions {

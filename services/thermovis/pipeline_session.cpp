@@ -20,6 +20,7 @@
 #include "thermovis/metrics/percentile.hpp"
 #include "thermovis/node/frame_codec.hpp"
 #include "thermovis/node/geometry_topic.hpp"
+#include "thermovis/node/health.hpp"
 #include "thermovis/node/service.hpp"
 #include "thermovis/obstacle/ground.hpp"
 #include "thermovis/process/manifest_io.hpp"
@@ -182,6 +183,15 @@ PipelineSession::PipelineSession(const SessionOptions& options) : options_(optio
 PipelineSession::~PipelineSession() { stop(); }
 
 void PipelineSession::start() { supervisor_->start(); }
+
+std::string PipelineSession::source_preparing() const {
+  const auto& health = supervisor_->health();
+  const auto bridge = health.find("thermovis-bridge");
+  if (bridge == health.end()) return {};
+  const std::string message = bridge->second.message().to_string();
+  if (message.rfind(node::kSourcePreparing, 0) != 0) return {};
+  return message.substr(node::kSourcePreparing.size());
+}
 
 void PipelineSession::stop() {
   if (supervisor_) supervisor_->stop();

@@ -170,6 +170,9 @@ class PipelineSession {
   const std::vector<ServiceOutage>& outages() const { return outages_; }
 
   supervisor::LatencySummary latency() const { return supervisor_->summary(); }
+  // What the bridge's source still prepares (its health message, node::kSourcePreparing), e.g.
+  // "37 of 100 captures prerendered"; empty once it runs as it will, or before it reported.
+  std::string source_preparing() const;
   RangeErrorSummary errors() const;
   std::vector<ProcessCpu> cpu() const;
   const std::vector<supervisor::LateFrame>& late_frames() const {

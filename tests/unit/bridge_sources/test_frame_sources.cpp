@@ -4,6 +4,7 @@
 // ring that does not fit the rig; the sim source's prerendered captures are the live ones.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -11,6 +12,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
+#include <thread>
 
 #include "frame_source.hpp"
 #include "thermovis/camera/taylor.hpp"
@@ -305,6 +307,22 @@ TEST_F(Sources, SimPrerenderCyclesThroughTheLiveCaptures) {
       identical(a[Slot::infrared_left], b[Slot::infrared_left]));  // noise differs per frame
   options.prerender = -1;
   EXPECT_NE(error_of([&] { make_source(options, rig_); }).find("--prerender"), std::string::npos);
+}
+
+// While it prerenders the simulated rig says how far it is (the bridge's health, which a
+// measurement waits on); rendering live it never prepares.
+TEST_F(Sources, SimSaysHowFarItsPrerenderIs) {
+  SourceOptions options;
+  options.scene = (thermovis::test::source_root() / "deploy/scenes/paper.yaml").string();
+  EXPECT_EQ(make_source(options, rig_)->preparing(), "");
+  options.prerender = 40;
+  auto cached = make_source(options, rig_);
+  const std::string first = cached->preparing();
+  EXPECT_NE(first.find(" of 40 captures prerendered"), std::string::npos) << first;
+  const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(120);
+  while (!cached->preparing().empty() && std::chrono::steady_clock::now() < end)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  EXPECT_EQ(cached->preparing(), "");
 }
 
 }  // namespace

@@ -7,6 +7,7 @@
 #include <functional>
 #include <mutex>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "thermovis/health.h"
@@ -15,6 +16,10 @@
 #include "thermovis/transport/writer.hpp"
 
 namespace thermovis::node {
+
+// The bridge's health message while its source prepares its captures (the simulated rig
+// prerendering them): this prefix, then what it has done. A measurement waits for its end.
+inline constexpr std::string_view kSourcePreparing = "source preparing: ";
 
 // "starting", "ok", "degraded", "failed" or "stopping" ("unknown" for a value out of the enum).
 const char* health_state_name(HealthState state);
