@@ -587,9 +587,10 @@ std::string pipeline_tables(const std::vector<json>& rows) {
        " on a target, mean |error| " + fixed(r.at("mean_abs_error_m"), 3) + " m (" +
        percent(r.at("mean_abs_relative_error"), 2) + "), p95 " + fixed(r.at("p95_abs_error_m"), 3) +
        " m.\n\n";
-  s += table_head({"process", "CPU (% of one core)", "RSS (MB)"});
+  s += table_head({"process", "CPU (% of one core)", "RSS (MB)", "scheduling"});
   for (const auto& [service, p] : r.at("processes").items()) {
-    s += table_row({service, fixed(p.at("cpu_percent"), 0), fixed(p.at("rss_mb"), 0)});
+    s += table_row({service, fixed(p.at("cpu_percent"), 0), fixed(p.at("rss_mb"), 0),
+                    p.value("scheduling", std::string())});
   }
   return s;
 }
