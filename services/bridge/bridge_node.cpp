@@ -78,8 +78,7 @@ void BridgeNode::report_preparing(std::int64_t index) {
   if (!preparing_ || index % 25 != 0) return;
   const std::string what = source_->preparing();
   preparing_ = !what.empty();
-  health_.set_state(HEALTH_OK,
-                    preparing_ ? std::string(node::kSourcePreparing) + what : "processing");
+  health_.set_message(preparing_ ? std::string(node::kSourcePreparing) + what : "processing");
 }
 
 void BridgeNode::run() {

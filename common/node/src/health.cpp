@@ -63,6 +63,14 @@ void HealthReporter::set_state(HealthState state, const std::string& message) {
   if (state == HEALTH_STOPPING) writer_.wait_for_acknowledgments(kStoppingAckWait);
 }
 
+void HealthReporter::set_message(const std::string& message) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    message_ = message;
+  }
+  publish_now();
+}
+
 void HealthReporter::frame_processed() {
   bool recovered = false;
   {

@@ -40,6 +40,8 @@ class HealthReporter {
                  std::chrono::milliseconds period = std::chrono::milliseconds(1000));
 
   void set_state(HealthState state, const std::string& message);
+  // A new message in the same state (e.g. how far a source's preparation is), published now.
+  void set_message(const std::string& message);
   void frame_processed();
   // Counts a bad input and keeps its message; the state becomes DEGRADED until `recover_after`
   // good frames have passed.
