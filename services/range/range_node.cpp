@@ -14,6 +14,9 @@
 namespace thermovis::range_service {
 namespace {
 
+// thermovis/ranges samples the writer keeps (50 a second).
+constexpr std::int32_t kRangesKept = 50;
+
 pipeline::TargetEntry entry_of(const TargetMatch& target) {
   pipeline::TargetEntry entry;
   entry.band = node::band_of(target.band());
@@ -92,7 +95,10 @@ RangeNode::RangeNode(transport::Participant& participant, const RangeConfig& con
     : config_(config),
       stage_(participant, config.range),
       matches_in_(participant, transport::topics::kMatches, transport::event_topic_qos()),
-      ranges_out_(participant, transport::topics::kRanges, transport::event_topic_qos()),
+      // A second of results kept for a reader that falls behind (another application at the
+      // normal policy while the frame path runs realtime): a reliable KEEP_LAST writer resends
+      // only what its history still holds.
+      ranges_out_(participant, transport::topics::kRanges, transport::event_topic_qos(kRangesKept)),
       timing_out_(participant, transport::topics::kTiming, transport::event_topic_qos()),
       health_(participant, service_name, [this] {
         return std::vector<transport::TopicCountersSnapshot>{
