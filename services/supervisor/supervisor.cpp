@@ -21,9 +21,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
-// The health key a manifest service reports under: "bridge" -> "thermovis-bridge".
-std::string health_key(const std::string& service) { return "thermovis-" + service; }
-
 // Exits, restarts and failed starts, one line each on the supervisor's log.
 void log_event(const std::string& service, const std::string& event) {
   std::cerr << "thermovis-supervisor: " << service << ": " << event << std::endl;
@@ -35,6 +32,8 @@ constexpr util::EnumName<Stage> kStageNames[] = {
     {STAGE_RANGE, "range"},   {STAGE_OBSTACLES, "obstacles"}};
 
 }  // namespace
+
+std::string health_key(const std::string& service) { return "thermovis-" + service; }
 
 const char* stage_name(Stage stage) { return util::name_of(kStageNames, stage, "none"); }
 

@@ -65,6 +65,9 @@ struct LateFrame {
 
 const char* stage_name(Stage stage);
 
+// The health key a manifest service reports under: "bridge" -> "thermovis-bridge".
+std::string health_key(const std::string& service);
+
 class Supervisor {
  public:
   Supervisor(transport::Participant& participant, process::Manifest manifest,

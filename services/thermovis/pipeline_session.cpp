@@ -186,7 +186,7 @@ void PipelineSession::start() { supervisor_->start(); }
 
 std::string PipelineSession::source_preparing() const {
   const auto& health = supervisor_->health();
-  const auto bridge = health.find("thermovis-bridge");
+  const auto bridge = health.find(supervisor::health_key("bridge"));
   if (bridge == health.end()) return {};
   const std::string message = bridge->second.message().to_string();
   if (message.rfind(node::kSourcePreparing, 0) != 0) return {};
