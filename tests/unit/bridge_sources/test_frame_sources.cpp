@@ -13,6 +13,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 #include <thread>
+#include <vector>
 
 #include "frame_source.hpp"
 #include "thermovis/camera/taylor.hpp"
@@ -310,19 +311,38 @@ TEST_F(Sources, SimPrerenderCyclesThroughTheLiveCaptures) {
 }
 
 // While it prerenders the simulated rig says how far it is (the bridge's health, which a
-// measurement waits on); rendering live it never prepares.
+// measurement waits on), counting up, and then nothing; rendering live it never prepares. 2000
+// captures of the tiny rig take one or two seconds: the first look comes while it prepares.
 TEST_F(Sources, SimSaysHowFarItsPrerenderIs) {
   SourceOptions options;
   options.scene = (thermovis::test::source_root() / "deploy/scenes/paper.yaml").string();
   EXPECT_EQ(make_source(options, rig_)->preparing(), "");
-  options.prerender = 40;
+  options.prerender = 2000;
   auto cached = make_source(options, rig_);
-  const std::string first = cached->preparing();
-  EXPECT_NE(first.find(" of 40 captures prerendered"), std::string::npos) << first;
+  std::vector<std::string> seen;
   const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(120);
-  while (!cached->preparing().empty() && std::chrono::steady_clock::now() < end)
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  for (std::string what = cached->preparing();
+       !what.empty() && std::chrono::steady_clock::now() < end; what = cached->preparing()) {
+    if (seen.empty() || seen.back() != what) seen.push_back(what);
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
   EXPECT_EQ(cached->preparing(), "");
+  ASSERT_FALSE(seen.empty()) << "2000 captures prerendered before the first look";
+  int last = -1;
+  for (const std::string& what : seen) {
+    std::istringstream in(what);
+    int done = -1;
+    std::string of, rest;
+    int total = 0;
+    in >> done >> of >> total;
+    std::getline(in, rest);
+    EXPECT_EQ(of, "of") << what;
+    EXPECT_EQ(total, 2000) << what;
+    EXPECT_EQ(rest, " captures prerendered") << what;
+    EXPECT_GT(done, last) << what;
+    EXPECT_LT(done, 2000) << what;
+    last = done;
+  }
 }
 
 }  // namespace
