@@ -264,10 +264,22 @@ void grey_pair(const cv::Mat& left, const cv::Mat& right, cv::Mat& left8, cv::Ma
         std::nth_element(detail.begin(), mid, detail.end());
         spread = std::max(1.4826f * *mid, 1e-3f);
       }
-      const double gain = 64.0 / (3.0 * spread);
+      double gain = 64.0 / (3.0 * spread);
       lf.convertTo(left8, CV_8U, gain, 128.0);
-      rf.convertTo(right8, CV_8U, gain, 128.0);
       left8.setTo(128, left == 0);
+      // Where the detail is mostly the cameras' noise (a road without texture of its own, at
+      // night: its detail is their fixed pattern) that stretch gives the noise itself about 20
+      // grey levels, and block matching's texture (the x Sobel clipped at 31, summed over a
+      // block) saturates on noise and on edges alike: no threshold tells them apart. The gain
+      // is then lowered until the noise is kMaxCountsNoiseGrey, so that what stands out of
+      // the noise (a warm body's outline) has the texture noise has not.
+      const double noise = image_noise_sigma(left8);
+      if (noise > kMaxCountsNoiseGrey) {
+        gain *= kMaxCountsNoiseGrey / noise;
+        lf.convertTo(left8, CV_8U, gain, 128.0);
+        left8.setTo(128, left == 0);
+      }
+      rf.convertTo(right8, CV_8U, gain, 128.0);
       right8.setTo(128, right == 0);
       return;
     }

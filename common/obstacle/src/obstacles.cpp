@@ -173,6 +173,39 @@ ObstacleDetector::ObstacleDetector(const camera::RectifiedIntrinsics& grid,
       p.sin_right[i] = std::abs(a) < M_PI / 2 ? std::sin(a) : kNan;
       p.cos_right[i] = std::cos(a);
     }
+    if (!p.reduced.right_centre_m.isZero()) right_rows(p);
+  }
+}
+
+void ObstacleDetector::right_rows(Pair& p) const {
+  // The row offset of a right eye off the grid's axis falls as 1 / distance: on the paper rig's
+  // infrared pair (its baseline 11 deg from the visible one, mostly forward) 1-3 grid px on the
+  // road a few metres ahead, where its edges run across the rows, so block matching along the
+  // rows read them with a disparity off by several px and the road stood above its ground. Each
+  // left ray's point on the prior ground (the road, or an object standing on it at about the
+  // distance of the ground behind its lower part; above the horizon, infinity) gives the right
+  // eye's row.
+  const camera::RectifiedCamera& g = p.reduced.grid;
+  const auto& r = g.intrinsics();
+  const Eigen::Vector3d& centre = p.reduced.right_centre_m;
+  p.right_map_x.create(r.height, r.width, CV_32FC1);
+  p.right_map_y.create(r.height, r.width, CV_32FC1);
+  for (int row = 0; row < r.height; ++row) {
+    const double beta = p.row_beta[static_cast<std::size_t>(row)];
+    auto* mx = p.right_map_x.ptr<float>(row);
+    auto* my = p.right_map_y.ptr<float>(row);
+    for (int c = 0; c < r.width; ++c) {
+      const auto i = static_cast<std::size_t>(c);
+      const Eigen::Vector3d u(p.sin_left[i], p.cos_left[i] * std::sin(beta),
+                              p.cos_left[i] * std::cos(beta));
+      // The ray's point on the ground, scaled by 1 / its distance (at infinity above the
+      // horizon: the same row in both eyes).
+      const double inverse_along = std::max(0.0, p.prior.normal.dot(u)) / p.prior.height_m;
+      const Eigen::Vector3d seen = u - inverse_along * centre;
+      const double beta_right = std::atan2(seen.y(), seen.z());
+      mx[c] = static_cast<float>(c);
+      my[c] = static_cast<float>(row + (beta_right - beta) * r.f);
+    }
   }
 }
 
@@ -215,6 +248,12 @@ void ObstacleDetector::reduce_pair(PairBand band, const cv::Mat& left, const cv:
     cv::resize(right(crop), rr, cv::Size(r.width, r.height), 0, 0, cv::INTER_AREA);
   }
   grey_pair(l, rr, left8, right8);
+  if (!p.right_map_y.empty()) {
+    cv::Mat aligned;
+    cv::remap(right8, aligned, p.right_map_x, p.right_map_y, cv::INTER_LINEAR,
+              cv::BORDER_REPLICATE);
+    right8 = aligned;
+  }
 }
 
 void ObstacleDetector::triangulate(const Pair& p, const cv::Mat& disparity, cv::Mat& points,
@@ -554,6 +593,33 @@ PairObstacles ObstacleDetector::analyse(PairBand band, const cv::Mat& disparity,
   return out;
 }
 
+namespace {
+
+// Drops the disparity of every block (block x block px about a pixel) whose gradient runs
+// mostly down the rows: its x Sobel's magnitude summed over the block under `share` times its
+// y Sobel's. Along such an edge (the horizon, a road's far edge, tilted a degree or two on the
+// grid) a row offset of a tenth of a pixel between the eyes moves the match by pixels.
+void drop_along_row_edges(const cv::Mat& left8, int block, double share, cv::Mat& disparity) {
+  cv::Mat gx, gy;
+  cv::Sobel(left8, gx, CV_32F, 1, 0, 3);
+  cv::Sobel(left8, gy, CV_32F, 0, 1, 3);
+  gx = cv::abs(gx);
+  gy = cv::abs(gy);
+  cv::boxFilter(gx, gx, -1, cv::Size(block, block), cv::Point(-1, -1), false);
+  cv::boxFilter(gy, gy, -1, cv::Size(block, block), cv::Point(-1, -1), false);
+  const auto s = static_cast<float>(share);
+  for (int r = 0; r < disparity.rows; ++r) {
+    const auto* x = gx.ptr<float>(r);
+    const auto* y = gy.ptr<float>(r);
+    auto* d = disparity.ptr<float>(r);
+    for (int c = 0; c < disparity.cols; ++c) {
+      if (x[c] < s * y[c]) d[c] = kNan;
+    }
+  }
+}
+
+}  // namespace
+
 DenseOptions ObstacleDetector::dense_options_for(const cv::Mat& left) const {
   DenseOptions o = options_.dense;
   if (left.type() == CV_16UC1) o.texture_noise_factor = options_.counts_texture_noise_factor;
@@ -578,7 +644,12 @@ cv::Mat ObstacleDetector::disparity(PairBand band, const cv::Mat& left,
       textured_share(left8, dense) < options_.ground.min_valid_share) {
     return cv::Mat(left8.size(), CV_32FC1, cv::Scalar(kNan));
   }
-  return dense_disparity(left8, right8, max_disparity_px_, dense);
+  if (!pair(band).right_map_y.empty()) dense.uniqueness_ratio = options_.off_axis_uniqueness_ratio;
+  cv::Mat d = dense_disparity(left8, right8, max_disparity_px_, dense);
+  if (!pair(band).right_map_y.empty() && options_.off_axis_min_across_share > 0) {
+    drop_along_row_edges(left8, dense.block_size, options_.off_axis_min_across_share, d);
+  }
+  return d;
 }
 
 PairObstacles ObstacleDetector::detect_pair(PairBand band, const cv::Mat& left,

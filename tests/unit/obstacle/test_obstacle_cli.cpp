@@ -34,6 +34,28 @@ TEST(ObstacleCli, BenchFindsTheStreetsTargetsAndFewOnTheEmptyRoad) {
   EXPECT_TRUE(standing) << j;
 }
 
+// At night (0.02 lux) the visible pair sees noise only: the infrared pair alone, registered
+// onto the visible grid with its right eye off the grid's axis, finds the near objects (boxes,
+// a parked car, a pole, 5-15 m) on its own ground, and nothing on the empty dark road.
+TEST(ObstacleCli, TheInfraredPairAloneFindsTheNearObjectsAtNight) {
+  const auto r = run_thermovis(
+      "bench obstacles --scene obstacles_night --band infrared --frames 4 --empty-frames 10 "
+      "--json");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto j = nlohmann::json::parse(r.output.substr(r.output.find('{')));
+  EXPECT_GE(j.at("recall_pct").get<double>(), 30.0) << j;
+  EXPECT_EQ(j.at("false_obstacles_per_100_frames").get<double>(), 0.0) << j;
+  const auto& near = j.at("per_distance").at(0);
+  EXPECT_EQ(near.at("distance_m"), "0-10");
+  EXPECT_EQ(near.at("found"), near.at("truths")) << j;
+  EXPECT_LT(near.at("median_rel_error_pct").get<double>(), 5.0) << j;
+  for (const auto& t : j.at("targets")) {
+    if (t.at("id") == "box_5" || t.at("id") == "parked_car") {
+      EXPECT_EQ(t.at("found"), t.at("in_view")) << t;
+    }
+  }
+}
+
 TEST(ObstacleCli, BadArgumentsAreNamed) {
   const auto band = run_thermovis("bench obstacles --band ultraviolet");
   EXPECT_NE(band.exit_code, 0);

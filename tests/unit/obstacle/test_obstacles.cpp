@@ -622,7 +622,8 @@ thermovis::pipeline::GridCapture street_capture() {
 namespace {
 
 // Infrared counts to grey (grey_pair) as it was written with OpenCV calls: float images, a 9 x 9
-// cv::blur, the detail's robust spread from every other pixel, the stretch, the flat border.
+// cv::blur, the detail's robust spread from every other pixel, the stretch (lowered where the
+// noise is more than kMaxCountsNoiseGrey), the flat border.
 // The one-pass detail must give the same grey images to the bit.
 void reference_grey_counts(const cv::Mat& left, const cv::Mat& right, cv::Mat& left8,
                            cv::Mat& right8) {
@@ -645,10 +646,16 @@ void reference_grey_counts(const cv::Mat& left, const cv::Mat& right, cv::Mat& l
     std::nth_element(detail.begin(), mid, detail.end());
     spread = std::max(1.4826f * *mid, 1e-3f);
   }
-  const double gain = 64.0 / (3.0 * spread);
+  double gain = 64.0 / (3.0 * spread);
   lf.convertTo(left8, CV_8U, gain, 128.0);
-  rf.convertTo(right8, CV_8U, gain, 128.0);
   left8.setTo(128, left == 0);
+  const double noise = ob::image_noise_sigma(left8);
+  if (noise > ob::kMaxCountsNoiseGrey) {
+    gain *= ob::kMaxCountsNoiseGrey / noise;
+    lf.convertTo(left8, CV_8U, gain, 128.0);
+    left8.setTo(128, left == 0);
+  }
+  rf.convertTo(right8, CV_8U, gain, 128.0);
   right8.setTo(128, right == 0);
 }
 

@@ -53,8 +53,11 @@ double textured_share(const cv::Mat& left, const DenseOptions& options);
 
 // A pair as the matcher reads it: CV_8UC1 kept, CV_8UC3 (BGR) to grey, CV_16UC1 (infrared
 // counts, 0 outside the camera's field) as their local detail (less the 9 x 9 mean) around grey
-// 128, at one gain for both eyes (so that a point is the same grey in both). Throws
-// std::invalid_argument for another type or eyes of different sizes or types.
+// 128, at one gain for both eyes (so that a point is the same grey in both): 3 robust sigmas of
+// the left eye's detail over 64 grey levels, less where that makes the left image's noise
+// (image_noise_sigma) more than kMaxCountsNoiseGrey. Throws std::invalid_argument for another
+// type or eyes of different sizes or types.
+inline constexpr double kMaxCountsNoiseGrey = 3.0;
 void grey_pair(const cv::Mat& left, const cv::Mat& right, cv::Mat& left8, cv::Mat& right8);
 
 // A dense disparity against a ground truth (CV_32FC1 of the same size, px; non-finite or <= 0
