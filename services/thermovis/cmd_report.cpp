@@ -139,6 +139,14 @@ std::vector<Run> plan(const Options& opt, const fs::path& data, const fs::path& 
     if (q && scene != "street") continue;
     runs.push_back({"obstacles", scene, {"bench", "obstacles", "--scene", scene, "--json"}, ""});
   }
+  // At night (the visible pair dark): the infrared pair alone.
+  if (!q) {
+    runs.push_back(
+        {"obstacles",
+         "obstacles_night",
+         {"bench", "obstacles", "--scene", "obstacles_night", "--band", "infrared", "--json"},
+         ""});
+  }
   // Board inner corners (columns x rows) and square size of each set: ../shared/data/calib.
   struct Set {
     std::string name, board, square;

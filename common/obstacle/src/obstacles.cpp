@@ -639,7 +639,7 @@ cv::Mat ObstacleDetector::disparity(PairBand band, const cv::Mat& left,
   }
   // Block matching gives a disparity to no more pixels than have a block with texture: where
   // that is less than the ground fit needs (min_valid_share, then no_disparity), not matched
-  // (on the simulated road the infrared pair's, whose detail is its fixed pattern).
+  // (on the simulated empty road at night the infrared pair's).
   if (dense.method == DenseMethod::block_matching &&
       textured_share(left8, dense) < options_.ground.min_valid_share) {
     return cv::Mat(left8.size(), CV_32FC1, cv::Scalar(kNan));

@@ -17,8 +17,8 @@
 //     the free space of a column is the distance to its stixel.
 // Both pairs' obstacles are combined where their boxes overlap at one distance (inverse
 // variance): either pair may be given alone, and both together give one list. A pair whose
-// ground is not found gives its status and no obstacle (on the simulated road the infrared
-// pair's: docs/obstacles.md).
+// ground is not found gives its status and no obstacle (on the simulated empty road at night
+// the infrared pair's: docs/obstacles.md).
 //
 // Frames and units: boxes and columns are px of the pipeline grid's left image (x = column,
 // y = row, pixel centres at integers); positions in the reporting camera's frame (the left
