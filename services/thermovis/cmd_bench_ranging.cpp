@@ -12,11 +12,14 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <numeric>
+#include <opencv2/imgproc.hpp>
+#include <optional>
 #include <random>
 #include <sstream>
 #include <stdexcept>
 
 #include "command.hpp"
+#include "thermovis/match/shift_bound.hpp"
 #include "thermovis/pipeline/capture_pipeline.hpp"
 #include "thermovis/runtime/grid_options.hpp"
 #include "thermovis/runtime/rig_io.hpp"
@@ -39,6 +42,7 @@ struct Options {
   std::uint64_t seed = 1;
   bool json = false;
   bool points = false;
+  bool bound = false;
   std::string estimate = "both";
   pl::GridOptions grid;
 };
@@ -112,6 +116,9 @@ struct Cell {
   double off_target_error_sum = 0;            // off-target points vs the target centre's, px
   double centre_offset_sum = 0;               // true centre distance - true point distance, m
   std::vector<double> true_disparity_errors;  // the estimator on true disparities, m
+  // --bound: the least mean |error| the target's pixels allow (shift_bound.hpp), summed.
+  double bound_abs_sum = 0;
+  int bounds = 0;
 };
 
 // Whether the 2-D segments p-q and a-b cross.
@@ -187,6 +194,60 @@ void evaluate_points(const sim::SimulatedRig& simulated, const sim::TargetTruth&
   }
 }
 
+// --bound: one sigma (m) of the least range uncertainty a target's pixels allow in one band:
+// the Cramer-Rao bound of its silhouette's shift between the eyes (match::shift_bound_px) on the
+// noise-free images, with the noise the rendered ones have in the box (their difference's
+// variance, each eye), times the metres per pixel of disparity at its true place. Its mask is
+// every pixel of the box whose ray meets the target (the simulator's ray tracer), and the
+// one-pixel ring about it (the outline). Infinity where the silhouette has no gradient.
+double range_bound_m(const pl::CapturePipeline& pipeline, const sim::SimulatedRig& simulated,
+                     const sim::TargetTruth& truth, const Eigen::Vector3d& centre_ref,
+                     pl::Band band, const pl::GridCapture& clean, const pl::GridCapture& noisy) {
+  const pl::PipelineGeometry& geometry = pipeline.geometry();
+  const rg::RangingGeometry g = geometry.ranging(band);
+  const int k = geometry.reduction(band);
+  const bool visible = band == pl::Band::visible;
+  const cv::Mat& clean_left = visible ? clean.grey_left : clean.infrared_left;
+  const cv::Mat& clean_right = visible ? clean.grey_right : clean.infrared_right;
+  const cv::Mat& noisy_left = visible ? noisy.grey_left : noisy.infrared_left;
+  const cv::Mat& noisy_right = visible ? noisy.grey_right : noisy.infrared_right;
+  const cv::Rect box =
+      pl::reduce_box(pl::points_box_on_grid(geometry, band, truth.surface_points_m), k) &
+      cv::Rect(cv::Point(), clean_left.size());
+  if (box.empty()) return std::numeric_limits<double>::infinity();
+  cv::Mat mask(clean_left.size(), CV_8UC1, cv::Scalar(0));
+  const Eigen::Vector3d origin = g.T_ref_left_rect.translation();
+  for (int y = box.y; y < box.y + box.height; ++y) {
+    for (int x = box.x; x < box.x + box.width; ++x) {
+      Eigen::Vector3d ray;
+      const Eigen::Vector2d grid_px(pl::grid_coordinate(x, k), pl::grid_coordinate(y, k));
+      if (!g.grid.unproject(grid_px, ray)) continue;
+      if (simulated.trace(origin, g.T_ref_left_rect.linear() * ray, 0).target_id == truth.id) {
+        mask.at<std::uint8_t>(y, x) = 1;
+      }
+    }
+  }
+  cv::dilate(mask, mask, cv::Mat::ones(3, 3, CV_8UC1));
+  double variance_sum = 0;
+  for (const auto& [c, n] : {std::pair{&clean_left, &noisy_left}, {&clean_right, &noisy_right}}) {
+    cv::Mat a, b;
+    (*c)(box).convertTo(a, CV_64F);
+    (*n)(box).convertTo(b, CV_64F);
+    cv::Scalar mean, deviation;
+    cv::meanStdDev(b - a, mean, deviation);
+    variance_sum += deviation[0] * deviation[0];
+  }
+  const double shift_px =
+      thermovis::match::shift_bound_px(clean_left, mask, variance_sum) * k;  // grid px
+  Eigen::Vector2d px;
+  double disparity = 0;
+  if (!rg::project_point(g, g.T_ref_left_rect.inverse() * centre_ref, px, disparity)) {
+    return std::numeric_limits<double>::infinity();
+  }
+  const rg::PointTriangulation t = rg::triangulate(g, px, disparity);
+  return t.valid ? shift_px * t.distance_per_px : std::numeric_limits<double>::infinity();
+}
+
 int run_bench_ranging(const Options& opt) {
   if (opt.trials < 1) throw std::invalid_argument("--trials must be >= 1");
   const std::vector<double> distances = parse_distances(opt.distances);
@@ -259,6 +320,15 @@ int run_bench_ranging(const Options& opt) {
     const pl::GridCapture capture =
         pipeline.rectify({frames[sim::Slot::visible_left], frames[sim::Slot::visible_right],
                           frames[sim::Slot::infrared_left], frames[sim::Slot::infrared_right]});
+    // --bound: the same scene without noise (no draw from rng: the trials stay those without).
+    std::optional<pl::GridCapture> clean;
+    if (opt.bound) {
+      const sim::SimulatedRig noiseless(rig, scene, 0, sim::RenderOptions{false, false});
+      sim::FrameSet f = noiseless.allocate();
+      noiseless.render(0, f);
+      clean = pipeline.rectify({f[sim::Slot::visible_left], f[sim::Slot::visible_right],
+                                f[sim::Slot::infrared_left], f[sim::Slot::infrared_right]});
+    }
     const Eigen::Isometry3d& T_ref_vl =
         simulated.rig().camera(simulated.rig().visible.left).T_ref_cam;
     for (const sim::TargetTruth& truth : simulated.truth(0)) {
@@ -268,11 +338,32 @@ int run_bench_ranging(const Options& opt) {
       const Eigen::Vector3d eye = T_ref_vl * Eigen::Vector3d::Zero();
       const Eigen::Vector3d to_centre = T_ref_vl * truth.position_m - eye;
       const bool hidden = simulated.trace(eye, to_centre.normalized(), 0).target_id != truth.id;
+      double visible_bound = 0, infrared_bound = 0;
+      if (clean && !hidden) {
+        const Eigen::Vector3d centre = T_ref_vl * truth.position_m;
+        visible_bound =
+            range_bound_m(pipeline, simulated, truth, centre, pl::Band::visible, *clean, capture);
+        infrared_bound =
+            range_bound_m(pipeline, simulated, truth, centre, pl::Band::infrared, *clean, capture);
+      }
       for (Mode mode : modes) {
         Cell& cell = cells[{nominal, mode}];
         if (hidden) {
           ++cell.hidden;
           continue;
+        }
+        if (clean) {
+          // An unbiased estimate at the bound: a mean |error| of sqrt(2 / pi) sigma. Fused: the
+          // two pairs' bounds combined by inverse variance, as their ranges are.
+          const double sigma = mode == Mode::visible ? visible_bound
+                               : mode == Mode::infrared
+                                   ? infrared_bound
+                                   : 1.0 / std::sqrt(1.0 / (visible_bound * visible_bound) +
+                                                     1.0 / (infrared_bound * infrared_bound));
+          if (std::isfinite(sigma)) {
+            cell.bound_abs_sum += std::sqrt(2.0 / M_PI) * sigma;
+            ++cell.bounds;
+          }
         }
         // The box as the pipeline has it: on the visible image for the visible pair, on the
         // infrared one (where the detector finds people) for the infrared pair and for both.
@@ -372,6 +463,10 @@ int run_bench_ranging(const Options& opt) {
                 ? nlohmann::json()
                 : nlohmann::json(true_bias / static_cast<double>(c.true_disparity_errors.size()));
       }
+      if (c.bounds > 0) {
+        row["bound_mean_abs_m"] = c.bound_abs_sum / c.bounds;
+        row["bounds"] = c.bounds;
+      }
       const auto paper = paper_error(distance, mode);
       row["paper_abs_error_m"] = paper ? nlohmann::json(*paper) : nlohmann::json();
       rows.push_back(row);
@@ -386,8 +481,7 @@ int run_bench_ranging(const Options& opt) {
   std::cout << std::setw(7) << "dist m" << std::setw(10) << "mode" << std::setw(8) << "ranged"
             << std::setw(12) << "mean|err|" << std::setw(10) << "max|err|" << std::setw(10)
             << "bias" << std::setw(10) << "sigma" << std::setw(8) << "in 1s" << std::setw(9)
-            << "paper" << std::setw(11) << "Eq2@0.1px"
-            << "\n"
+            << "paper" << std::setw(11) << "Eq2@0.1px" << (opt.bound ? "     bound" : "") << "\n"
             << std::fixed;
   // A number with `p` decimals, "-" for null.
   auto num = [](const nlohmann::json& v, int p) {
@@ -404,7 +498,10 @@ int run_bench_ranging(const Options& opt) {
               << num(r["max_abs_error_m"], 3) << std::setw(10) << num(r["mean_signed_error_m"], 3)
               << std::setw(10) << num(r["mean_sigma_m"], 3) << std::setw(8)
               << num(r["within_1_sigma"], 2) << std::setw(9) << num(r["paper_abs_error_m"], 2)
-              << std::setw(11) << num(r["eq2_error_at_0.1px_m"], 3) << "\n";
+              << std::setw(11) << num(r["eq2_error_at_0.1px_m"], 3);
+    if (opt.bound)
+      std::cout << std::setw(10) << num(r.value("bound_mean_abs_m", nlohmann::json()), 3);
+    std::cout << "\n";
   }
   bool any_failure = false;
   for (const auto& r : rows) {
@@ -464,6 +561,10 @@ THERMOVIS_COMMAND(
                    "also trace every kept point in the simulated scene (evaluation only): "
                    "on-target fraction, disparity error against the true geometry (visible "
                    "and infrared; fused combines those two pairs' ranges)");
+      app.add_flag("--bound", opt->bound,
+                   "also the least mean |error| each person's pixels allow (the Cramer-Rao bound "
+                   "of its silhouette's disparity on noise-free renders, with the rendered "
+                   "noise): bound_mean_abs_m");
       app.add_option("--estimate", opt->estimate,
                      "what each pair's range rests on: points | region | both")
           ->capture_default_str();

@@ -110,6 +110,40 @@ TEST(RangeCli, BadBoxesAndAMissingFolderSayWhy) {
   EXPECT_NE(missing.output.find("/nonexistent/frame"), std::string::npos) << missing.output;
 }
 
+// --bound: the least mean |error| each person's pixels allow, beside the same trials' errors
+// (the noise-free render draws nothing from the trials' random sequence).
+TEST(BenchRangingCli, BoundsWhatThePixelsAllowOnTheSameTrials) {
+  const std::string args = "bench ranging --trials 2 --distances 10,40 --mode all --seed 3 --json";
+  const auto plain = run_thermovis(args);
+  const auto bounded = run_thermovis(args + " --bound");
+  ASSERT_EQ(plain.exit_code, 0) << plain.output;
+  ASSERT_EQ(bounded.exit_code, 0) << bounded.output;
+  const auto a = json_lines(plain.output), b = json_lines(bounded.output);
+  ASSERT_EQ(a.size(), 6u) << plain.output;
+  ASSERT_EQ(b.size(), 6u) << bounded.output;
+  std::map<std::pair<double, std::string>, double> bound;
+  const auto at = [&](double d, const std::string& mode) { return bound[std::make_pair(d, mode)]; };
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_FALSE(a[i].contains("bound_mean_abs_m")) << a[i];
+    EXPECT_EQ(a[i].at("mean_abs_error_m"), b[i].at("mean_abs_error_m")) << b[i];
+    ASSERT_TRUE(b[i].contains("bound_mean_abs_m")) << b[i];
+    const double v = b[i].at("bound_mean_abs_m").get<double>();
+    EXPECT_GT(v, 0.0) << b[i];
+    EXPECT_TRUE(std::isfinite(v)) << b[i];
+    EXPECT_EQ(b[i].at("bounds"), 2) << b[i];
+    bound[{b[i].at("distance_m").get<double>(), b[i].at("mode").get<std::string>()}] = v;
+  }
+  for (const std::string mode : {"visible", "infrared", "fused"}) {
+    // Farther: fewer pixels, and metres per pixel of disparity growing as the square.
+    EXPECT_GT(at(40.0, mode), 4 * at(10.0, mode)) << mode;
+  }
+  for (const double d : {10.0, 40.0}) {
+    // Both pairs together allow less error than either alone.
+    EXPECT_LT(at(d, "fused"), at(d, "visible")) << d;
+    EXPECT_LT(at(d, "fused"), at(d, "infrared")) << d;
+  }
+}
+
 TEST(BenchRangingCli, PrintsTable6RowsForScripts) {
   const auto r =
       run_thermovis("bench ranging --trials 2 --distances 10,25 --mode all --seed 3 --json");
