@@ -190,10 +190,12 @@ void ObstacleDetector::right_rows(Pair& p) const {
   const Eigen::Vector3d& centre = p.reduced.right_centre_m;
   p.right_map_x.create(r.height, r.width, CV_32FC1);
   p.right_map_y.create(r.height, r.width, CV_32FC1);
+  p.right_row_per_disparity.create(r.height, r.width, CV_32FC1);
   for (int row = 0; row < r.height; ++row) {
     const double beta = p.row_beta[static_cast<std::size_t>(row)];
     auto* mx = p.right_map_x.ptr<float>(row);
     auto* my = p.right_map_y.ptr<float>(row);
+    auto* k = p.right_row_per_disparity.ptr<float>(row);
     for (int c = 0; c < r.width; ++c) {
       const auto i = static_cast<std::size_t>(c);
       const Eigen::Vector3d u(p.sin_left[i], p.cos_left[i] * std::sin(beta),
@@ -205,6 +207,11 @@ void ObstacleDetector::right_rows(Pair& p) const {
       const double beta_right = std::atan2(seen.y(), seen.z());
       mx[c] = static_cast<float>(c);
       my[c] = static_cast<float>(row + (beta_right - beta) * r.f);
+      // To first order the right eye's row offset is f (C_z sin beta - C_y cos beta) / (rho
+      // cos alpha) at the distance rho along the ray, and the disparity f A cos alpha / rho.
+      const double cos_a = p.cos_left[i];
+      k[c] = static_cast<float>((centre.z() * std::sin(beta) - centre.y() * std::cos(beta)) /
+                                (p.reduced.baseline_m * cos_a * cos_a));
     }
   }
 }
@@ -595,25 +602,45 @@ PairObstacles ObstacleDetector::analyse(PairBand band, const cv::Mat& disparity,
 
 namespace {
 
-// Drops the disparity of every block (block x block px about a pixel) whose gradient runs
-// mostly down the rows: its x Sobel's magnitude summed over the block under `share` times its
-// y Sobel's. Along such an edge (the horizon, a road's far edge, tilted a degree or two on the
-// grid) a row offset of a tenth of a pixel between the eyes moves the match by pixels.
-void drop_along_row_edges(const cv::Mat& left8, int block, double share, cv::Mat& disparity) {
-  cv::Mat gx, gy;
+// A pair off the grid's axis after its right image was resampled onto the left's rows at the
+// prior ground's distance (Pair::right_map_y): a point nearer than that ground (an object's
+// upper part) is still `delta` rows off in the right image, and block matching along the rows
+// reads a block whose gradient is oblique shifted by delta * sum(gx gy) / sum(gx^2) (the least
+// squares shift of a linear patch moved by delta down the rows). Per pixel, delta follows from
+// its own disparity (row_per_disparity * d: the row offset falls as 1 / distance, as the
+// disparity grows) less the map's; the disparity is corrected by it. Blocks whose gradient runs
+// mostly down the rows (x Sobel magnitude under `share` of the y Sobel's: the horizon, a road's
+// far edge, tilted a degree or two on the grid) are dropped, where a tenth of a pixel of row
+// offset moves the match by pixels; so is a correction of more than max_px.
+void correct_off_axis(const cv::Mat& left8, int block, double share, double max_px,
+                      const cv::Mat& row_per_disparity, const cv::Mat& map_y, cv::Mat& disparity) {
+  cv::Mat gx, gy, ax, ay, xx, xy;
   cv::Sobel(left8, gx, CV_32F, 1, 0, 3);
   cv::Sobel(left8, gy, CV_32F, 0, 1, 3);
-  gx = cv::abs(gx);
-  gy = cv::abs(gy);
-  cv::boxFilter(gx, gx, -1, cv::Size(block, block), cv::Point(-1, -1), false);
-  cv::boxFilter(gy, gy, -1, cv::Size(block, block), cv::Point(-1, -1), false);
+  const cv::Size window(block, block);
+  cv::boxFilter(cv::abs(gx), ax, -1, window, cv::Point(-1, -1), false);
+  cv::boxFilter(cv::abs(gy), ay, -1, window, cv::Point(-1, -1), false);
+  cv::boxFilter(gx.mul(gx), xx, -1, window, cv::Point(-1, -1), false);
+  cv::boxFilter(gx.mul(gy), xy, -1, window, cv::Point(-1, -1), false);
   const auto s = static_cast<float>(share);
   for (int r = 0; r < disparity.rows; ++r) {
-    const auto* x = gx.ptr<float>(r);
-    const auto* y = gy.ptr<float>(r);
+    const auto* x = ax.ptr<float>(r);
+    const auto* y = ay.ptr<float>(r);
+    const auto* sxx = xx.ptr<float>(r);
+    const auto* sxy = xy.ptr<float>(r);
+    const auto* k = row_per_disparity.ptr<float>(r);
+    const auto* my = map_y.ptr<float>(r);
     auto* d = disparity.ptr<float>(r);
     for (int c = 0; c < disparity.cols; ++c) {
-      if (x[c] < s * y[c]) d[c] = kNan;
+      if (!(d[c] > 0)) continue;
+      if (x[c] < s * y[c] || !(sxx[c] > 0)) {
+        d[c] = kNan;
+        continue;
+      }
+      if (max_px < 0) continue;
+      const float delta = k[c] * d[c] - (my[c] - static_cast<float>(r));
+      const float correction = delta * sxy[c] / sxx[c];
+      d[c] = std::abs(correction) <= max_px && d[c] + correction > 0 ? d[c] + correction : kNan;
     }
   }
 }
@@ -646,8 +673,11 @@ cv::Mat ObstacleDetector::disparity(PairBand band, const cv::Mat& left,
   }
   if (!pair(band).right_map_y.empty()) dense.uniqueness_ratio = options_.off_axis_uniqueness_ratio;
   cv::Mat d = dense_disparity(left8, right8, max_disparity_px_, dense);
-  if (!pair(band).right_map_y.empty() && options_.off_axis_min_across_share > 0) {
-    drop_along_row_edges(left8, dense.block_size, options_.off_axis_min_across_share, d);
+  const Pair& p = pair(band);
+  if (!p.right_map_y.empty()) {
+    correct_off_axis(left8, dense.block_size, options_.off_axis_min_across_share,
+                     options_.off_axis_max_correction_px, p.right_row_per_disparity, p.right_map_y,
+                     d);
   }
   return d;
 }

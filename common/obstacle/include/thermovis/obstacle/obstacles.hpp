@@ -79,6 +79,9 @@ struct ObstacleOptions {
   // keeps the defaults: on the real MS2 thermal pair the test would drop the van.
   int off_axis_uniqueness_ratio = 20;
   double off_axis_min_across_share = 0.5;
+  // The largest correction of such a pair's disparity for the row offset the resampling at the
+  // ground's distance leaves on a nearer point (obstacles.cpp); more: the disparity dropped.
+  double off_axis_max_correction_px = 2.0;
   GroundOptions ground;
   double min_height_m = 0.15;             // a pixel this high above the ground (+ 3 sigma) stands
   double disparity_sigma_px = 0.25;       // one pixel's disparity noise, reduced px (height test)
@@ -237,6 +240,8 @@ class ObstacleDetector {
     // row (CV_32FC1; x: the column itself) that holds the prior ground's point on its ray
     // (above the horizon: its point at infinity). Empty on the axis.
     cv::Mat right_map_x, right_map_y;
+    // The right eye's row offset per px of disparity at each reduced left pixel (first order).
+    cv::Mat right_row_per_disparity;
   };
   const Pair& pair(PairBand band) const;
   // Pair::right_map_x and right_map_y of a pair whose right eye is off the grid's axis.
