@@ -15,6 +15,7 @@
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <iomanip>
 #include <iostream>
 #include <map>
@@ -427,28 +428,30 @@ std::string ranging_tables(const std::vector<json>& rows) {
         "figure in its last row.\n";
   // The same errors as disparity (Eq. 2: a range error of e m at L is e f B / L^2 px), beside
   // what Table 6 asks of the pixels.
+  // One row per distance, one cell per mode: `text` of the cell's row, "" where it gives none.
+  const auto cell_rows = [&](const std::function<std::string(const json&)>& text) {
+    std::string rows;
+    for (double d : distances) {
+      std::vector<std::string> line{fixed(d, 0)};
+      for (const auto& m : modes) {
+        const auto it = cell.find({d, m});
+        line.push_back(it == cell.end() ? std::string() : text(it->second));
+      }
+      rows += table_row(line);
+    }
+    return rows;
+  };
   std::string s3 =
       "\nMean absolute error as disparity (px, by Eq. 2 at the pair's focal length and "
       "baseline): ours / the paper's Table 6:\n\n" +
-      table_head(head);
-  for (double d : distances) {
-    std::vector<std::string> line{fixed(d, 0)};
-    for (const auto& m : modes) {
-      const auto it = cell.find({d, m});
-      const json* r = it == cell.end() ? nullptr : &it->second;
-      const double per_px = r != nullptr ? 10.0 * r->at("eq2_error_at_0.1px_m").get<double>() : 0;
-      if (r == nullptr || !(per_px > 0)) {
-        line.push_back("");
-        continue;
-      }
-      const json& ours = r->at("mean_abs_error_m");
-      const json& paper = r->at("paper_abs_error_m");
-      line.push_back((ours.is_null() ? std::string("-") : fixed(ours.get<double>() / per_px, 3)) +
-                     " / " +
-                     (paper.is_null() ? std::string("-") : fixed(paper.get<double>() / per_px, 3)));
-    }
-    s3 += table_row(line);
-  }
+      table_head(head) + cell_rows([](const json& r) {
+        const double per_px = 10.0 * r.at("eq2_error_at_0.1px_m").get<double>();
+        if (!(per_px > 0)) return std::string();
+        const json& ours = r.at("mean_abs_error_m");
+        const json& paper = r.at("paper_abs_error_m");
+        return (ours.is_null() ? std::string("-") : fixed(ours.get<double>() / per_px, 3)) + " / " +
+               (paper.is_null() ? std::string("-") : fixed(paper.get<double>() / per_px, 3));
+      });
   // --bound: the least mean |error| the noise of the target's pixels allows.
   std::string s4;
   bool bounded = false;
@@ -458,22 +461,11 @@ std::string ranging_tables(const std::vector<json>& rows) {
          "the Cramer-Rao bound of its silhouette's disparity on noise-free renders with the "
          "rendered noise, as the mean |error| of an unbiased estimate at it; fused: both pairs' "
          "bounds combined), beside ours and Table 6: ours / bound / paper:\n\n" +
-         table_head(head);
-    for (double d : distances) {
-      std::vector<std::string> line{fixed(d, 0)};
-      for (const auto& m : modes) {
-        const auto it = cell.find({d, m});
-        if (it == cell.end() || !it->second.contains("bound_mean_abs_m")) {
-          line.push_back("");
-          continue;
-        }
-        const json& r = it->second;
-        line.push_back(fixed(r.at("mean_abs_error_m"), 3) + " / " +
-                       fixed(r.at("bound_mean_abs_m"), 4) + " / " +
-                       fixed(r.at("paper_abs_error_m"), 2));
-      }
-      s4 += table_row(line);
-    }
+         table_head(head) + cell_rows([](const json& r) {
+           if (!r.contains("bound_mean_abs_m")) return std::string();
+           return fixed(r.at("mean_abs_error_m"), 3) + " / " + fixed(r.at("bound_mean_abs_m"), 4) +
+                  " / " + fixed(r.at("paper_abs_error_m"), 2);
+         });
   }
   return s + s2 + s3 + s4;
 }
