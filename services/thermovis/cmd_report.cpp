@@ -430,16 +430,16 @@ std::string ranging_tables(const std::vector<json>& rows) {
   // what Table 6 asks of the pixels.
   // One row per distance, one cell per mode: `text` of the cell's row, "" where it gives none.
   const auto cell_rows = [&](const std::function<std::string(const json&)>& text) {
-    std::string rows;
+    std::string out;
     for (double d : distances) {
       std::vector<std::string> line{fixed(d, 0)};
       for (const auto& m : modes) {
         const auto it = cell.find({d, m});
         line.push_back(it == cell.end() ? std::string() : text(it->second));
       }
-      rows += table_row(line);
+      out += table_row(line);
     }
-    return rows;
+    return out;
   };
   std::string s3 =
       "\nMean absolute error as disparity (px, by Eq. 2 at the pair's focal length and "
