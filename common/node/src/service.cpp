@@ -1,6 +1,5 @@
 #include "thermovis/node/service.hpp"
 
-#include <malloc.h>
 #include <signal.h>
 
 #include <algorithm>
@@ -8,6 +7,8 @@
 #include <cstdlib>
 #include <iostream>
 #include <opencv2/core/utility.hpp>
+
+#include "thermovis/util/heap.hpp"
 
 namespace thermovis::node {
 namespace {
@@ -61,11 +62,7 @@ std::unique_ptr<transport::Participant> make_participant(const CommonOptions& op
 
 int run_service(const CommonOptions& options, const std::function<void()>& body) {
   install_stop_handlers();
-  // Per-frame images of a few MB are allocated and freed at 50 Hz; glibc would map and unmap
-  // each one (anything over 128 kB by default), and the page faults of touching fresh pages
-  // cost more than the image processing itself. Keep such blocks on the heap for reuse.
-  mallopt(M_MMAP_THRESHOLD, 32 * 1024 * 1024);
-  mallopt(M_TRIM_THRESHOLD, 256 * 1024 * 1024);
+  util::keep_freed_heap();
   cv::setNumThreads(options.threads);
   try {
     body();

@@ -1,6 +1,7 @@
 // The obstacle stage (common/obstacle) on one capture of the simulated street scene, rectified
 // onto the pipeline grid (0.5 of the visible pair's default grid, 936 x 566 for the paper rig),
-// one core: both pairs (the default; and with the ground tracked from frame to frame), the
+// one core: both pairs (the default; with the ground tracked from frame to frame; without
+// narrow obstacles ranged again on the grid's pixels, ObstacleOptions::refine), the
 // visible pair alone, the infrared pair alone, and the parts of one visible pair (dense
 // disparity; the ground, stixels and obstacles after it). The real-time budget is 5 ms of CPU
 // per capture for the whole stage (issue 18).
@@ -13,6 +14,7 @@
 #include "thermovis/runtime/rig_io.hpp"
 #include "thermovis/runtime/scene_io.hpp"
 #include "thermovis/sim/simulated_rig.hpp"
+#include "thermovis/util/heap.hpp"
 
 namespace {
 
@@ -35,36 +37,42 @@ struct Fixture {
     const pl::PipelineGeometry& g = pipeline.geometry();
     ob::GroundPrior prior;
     prior.camera_height_m = scene.camera_height_m;
-    detector = std::make_unique<ob::ObstacleDetector>(
-        g.grid,
-        std::vector<ob::PairSetup>{
-            {ob::PairBand::visible, g.ranging(pl::Band::visible)},
-            {ob::PairBand::infrared, g.ranging(pl::Band::infrared), g.infrared_reduction}},
-        g.T_ref_reporting, prior);
+    const std::vector<ob::PairSetup> pairs{
+        {ob::PairBand::visible, g.ranging(pl::Band::visible)},
+        {ob::PairBand::infrared, g.ranging(pl::Band::infrared), g.infrared_reduction}};
+    detector = std::make_unique<ob::ObstacleDetector>(g.grid, pairs, g.T_ref_reporting, prior);
+    ob::ObstacleOptions unrefined;
+    unrefined.refine = false;
+    stixels_only =
+        std::make_unique<ob::ObstacleDetector>(g.grid, pairs, g.T_ref_reporting, prior, unrefined);
   }
   pl::GridCapture capture;
-  std::unique_ptr<ob::ObstacleDetector> detector;
+  std::unique_ptr<ob::ObstacleDetector> detector, stixels_only;
 };
 
 const Fixture& fixture() {
   cv::setNumThreads(1);
+  thermovis::util::keep_freed_heap();  // as the obstacle service runs
   static const Fixture f;
   return f;
 }
 
 void BM_ObstaclesBothPairs(benchmark::State& state) {
   const Fixture& f = fixture();
+  const bool refine = state.range(0) == 1;
+  state.SetLabel(refine ? "narrow ones refined" : "stixels only");
+  const ob::ObstacleDetector& detector = refine ? *f.detector : *f.stixels_only;
   std::size_t found = 0;
   for (auto _ : state) {
     const ob::ObstacleResult r =
-        f.detector->detect(f.capture.grey_left, f.capture.grey_right, f.capture.infrared_left,
-                           f.capture.infrared_right);
+        detector.detect(f.capture.grey_left, f.capture.grey_right, f.capture.infrared_left,
+                        f.capture.infrared_right);
     found = r.obstacles.size();
     benchmark::DoNotOptimize(found);
   }
   state.counters["obstacles"] = static_cast<double>(found);
 }
-BENCHMARK(BM_ObstaclesBothPairs)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_ObstaclesBothPairs)->Arg(1)->Arg(0)->Unit(benchmark::kMillisecond);
 
 // The same, each pair's ground searched about the last frame's (GroundTracks): the narrower
 // search of every frame after the first.
