@@ -791,8 +791,7 @@ void ObstacleDetector::refine(const Pair& p, const cv::Mat& left, const cv::Mat&
   // point, and on the simulated night road it moved no error towards 0.)
   const int type = left.type();
   if (!options_.refine || !out.ok() || p.setup.image_reduction != 1 ||
-      left.size() != right.size() || right.type() != type ||
-      (type != CV_8UC1 && type != CV_8UC3)) {
+      left.size() != right.size() || right.type() != type || (type != CV_8UC1 && type != CV_8UC3)) {
     return;
   }
   const int k = options_.reduction;
@@ -843,13 +842,14 @@ void ObstacleDetector::refine(const Pair& p, const cv::Mat& left, const cv::Mat&
       cv::cvtColor(left(part), grey_left, cv::COLOR_BGR2GRAY);
       cv::cvtColor(right(part), grey_right, cv::COLOR_BGR2GRAY);
     }
-    const match::RegionDisparity r = match::align_region(grey_left, grey_right, box - part.tl(),
-                                                         mask, initial_px, region);
+    const match::RegionDisparity r =
+        match::align_region(grey_left, grey_right, box - part.tl(), mask, initial_px, region);
     if (!r.ok() || !(std::abs(r.disparity_px - initial_px) <= options_.refine_max_change_px)) {
       continue;
     }
     const Eigen::Vector2d anchor = r.anchor + Eigen::Vector2d(part.x, part.y);
-    const range::PointTriangulation t = range::triangulate(p.setup.geometry, anchor, r.disparity_px);
+    const range::PointTriangulation t =
+        range::triangulate(p.setup.geometry, anchor, r.disparity_px);
     if (!t.valid) continue;
     const double distance_m =
         horizontal_distance(p.T_reporting_rect * t.position_left_rect, out.ground_reporting.normal);

@@ -64,9 +64,8 @@ void BM_ObstaclesBothPairs(benchmark::State& state) {
   const ob::ObstacleDetector& detector = refine ? *f.detector : *f.stixels_only;
   std::size_t found = 0;
   for (auto _ : state) {
-    const ob::ObstacleResult r =
-        detector.detect(f.capture.grey_left, f.capture.grey_right, f.capture.infrared_left,
-                        f.capture.infrared_right);
+    const ob::ObstacleResult r = detector.detect(f.capture.grey_left, f.capture.grey_right,
+                                                 f.capture.infrared_left, f.capture.infrared_right);
     found = r.obstacles.size();
     benchmark::DoNotOptimize(found);
   }
