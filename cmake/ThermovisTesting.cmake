@@ -33,8 +33,8 @@ endfunction()
 # the figures come from running the executable itself).
 function(thermovis_add_benchmark)
   cmake_parse_arguments(ARG "" "NAME" "SOURCES;LIBS" ${ARGN})
-  add_executable(${ARG_NAME} ${ARG_SOURCES})
-  target_link_libraries(${ARG_NAME} PRIVATE ${ARG_LIBS} thermovis::test_support
+  add_executable(${ARG_NAME} ${ARG_SOURCES} ${PROJECT_SOURCE_DIR}/tests/bench/heap_policy.cpp)
+  target_link_libraries(${ARG_NAME} PRIVATE ${ARG_LIBS} thermovis::test_support thermovis::util
     benchmark::benchmark thermovis::warnings)
   add_test(NAME ${ARG_NAME}.smoke COMMAND ${ARG_NAME} --benchmark_min_time=0.01)
   set_tests_properties(${ARG_NAME}.smoke PROPERTIES LABELS bench TIMEOUT 600)

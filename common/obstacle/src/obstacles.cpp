@@ -797,7 +797,7 @@ void ObstacleDetector::refine(const Pair& p, const cv::Mat& left, const cv::Mat&
   const int k = options_.reduction;
   match::RegionOptions region;
   region.search_radius_px = 2;
-  region.max_pixels = 400;
+  region.max_pixels = 400;  // a narrow face holds a few hundred: more are subsampled
   region.max_disparity_px = (max_disparity_px_ + 2) * k;
   std::vector<double> ds;
   for (std::size_t i = 0; i < out.obstacles.size(); ++i) {

@@ -14,7 +14,6 @@
 #include "thermovis/runtime/rig_io.hpp"
 #include "thermovis/runtime/scene_io.hpp"
 #include "thermovis/sim/simulated_rig.hpp"
-#include "thermovis/util/heap.hpp"
 
 namespace {
 
@@ -52,7 +51,6 @@ struct Fixture {
 
 const Fixture& fixture() {
   cv::setNumThreads(1);
-  thermovis::util::keep_freed_heap();  // as the obstacle service runs
   static const Fixture f;
   return f;
 }
