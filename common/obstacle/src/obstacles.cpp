@@ -503,11 +503,16 @@ std::vector<Obstacle> ObstacleDetector::cluster(const std::vector<Stixel>& stixe
       // Near its neighbour, and near the median of the obstacle's last five stixels: the one or
       // two mixed stixels where a nearer object covers part of a farther one (blocks straddling
       // both) range in between and would otherwise chain the two into one.
+      // Kept in order as they are taken (at most five: std::sort on the part of the array in
+      // use made GCC 12 warn of bounds it cannot see are kept).
       std::array<double, 5> last{};
       std::size_t n = 0;
-      for (std::size_t j = i; j > start && n < last.size(); --j)
-        last[n++] = stixels[j - 1].distance_m;
-      std::sort(last.begin(), last.begin() + static_cast<std::ptrdiff_t>(n));
+      for (std::size_t j = i; j > start && n < last.size(); --j) {
+        const double v = stixels[j - 1].distance_m;
+        std::size_t at = n++;
+        for (; at > 0 && last[at - 1] > v; --at) last[at] = last[at - 1];
+        last[at] = v;
+      }
       const double recent_m = last[n / 2];
       if (b.column - a.column - 1 <= options_.max_cluster_gap_columns &&
           std::abs(a.distance_m - b.distance_m) <= tolerance(a.distance_m, b.distance_m) &&
