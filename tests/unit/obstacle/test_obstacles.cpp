@@ -8,7 +8,9 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 #include <random>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include "thermovis/obstacle/obstacles.hpp"
 #include "thermovis/obstacle/robust.hpp"
@@ -330,42 +332,75 @@ TEST(DenseDisparity, FindsAShiftedTexture) {
   EXPECT_THROW(ob::parse_dense_method("surf"), std::invalid_argument);
 }
 
+namespace {
+
+// Capture 0 of a shipped scene (seed 1) through `pipeline`'s rectification, with its targets.
+struct SimulatedCapture {
+  thermovis::sim::Scene scene;
+  thermovis::pipeline::GridCapture capture;
+  std::vector<thermovis::sim::TargetTruth> truths;
+};
+SimulatedCapture simulated_capture(const std::string& scene_name,
+                                   thermovis::pipeline::CapturePipeline& pipeline) {
+  namespace sim = thermovis::sim;
+  SimulatedCapture out;
+  out.scene = thermovis::runtime::load_scene(thermovis::runtime::shipped_scene_path(scene_name));
+  const sim::SimulatedRig simulated(
+      thermovis::runtime::load_rig(thermovis::runtime::default_rig_path()), out.scene, 1);
+  sim::FrameSet frames = simulated.allocate();
+  simulated.render(0, frames);
+  out.capture =
+      pipeline.rectify({frames[sim::Slot::visible_left], frames[sim::Slot::visible_right],
+                        frames[sim::Slot::infrared_left], frames[sim::Slot::infrared_right]});
+  out.truths = simulated.truth(0);
+  return out;
+}
+
+// The horizontal distance of a target's nearest surface point (the reporting camera's frame).
+double nearest_m(const thermovis::sim::TargetTruth& t) {
+  double nearest = 1e9;
+  for (const Eigen::Vector3d& p : t.surface_points_m)
+    nearest = std::min(nearest, std::hypot(p.x(), p.z()));
+  return nearest;
+}
+
+// Of the obstacles overlapping `box`, the one whose distance is nearest `distance_m`.
+const ob::Obstacle* obstacle_over(const std::vector<ob::Obstacle>& obstacles, const cv::Rect& box,
+                                  double distance_m) {
+  const ob::Obstacle* found = nullptr;
+  for (const ob::Obstacle& o : obstacles) {
+    if ((o.box & box).area() > 0 &&
+        (found == nullptr ||
+         std::abs(o.distance_m - distance_m) < std::abs(found->distance_m - distance_m))) {
+      found = &o;
+    }
+  }
+  return found;
+}
+
+}  // namespace
+
 // The simulated street (frame 0) through the pipeline's rectification: the visible pair finds
 // the ground at the rig's height and the standing person (15 m) and the near pole (10 m) as
 // obstacles at their distances; the empty road (no targets, no walls) gives none there.
 TEST(ObstacleDetectorOnSimulatedStreet, FindsTheGroundThePersonAndThePole) {
   namespace pl = thermovis::pipeline;
-  namespace sim = thermovis::sim;
-  const auto rig = thermovis::runtime::load_rig(thermovis::runtime::default_rig_path());
-  const sim::Scene scene =
-      thermovis::runtime::load_scene(thermovis::runtime::shipped_scene_path("street"));
-  const sim::SimulatedRig simulated(rig, scene, 1);
-  pl::CapturePipeline pipeline(rig);
+  pl::CapturePipeline pipeline(
+      thermovis::runtime::load_rig(thermovis::runtime::default_rig_path()));
+  const SimulatedCapture s = simulated_capture("street", pipeline);
   const pl::PipelineGeometry& g = pipeline.geometry();
   const ob::ObstacleDetector d(g.grid, {{ob::PairBand::visible, g.ranging(pl::Band::visible)}},
-                               g.T_ref_reporting, ob::GroundPrior{scene.camera_height_m, 0.0, 0.0});
-  sim::FrameSet frames = simulated.allocate();
-  simulated.render(0, frames);
-  const pl::GridCapture c =
-      pipeline.rectify({frames[sim::Slot::visible_left], frames[sim::Slot::visible_right],
-                        frames[sim::Slot::infrared_left], frames[sim::Slot::infrared_right]});
+                               g.T_ref_reporting,
+                               ob::GroundPrior{s.scene.camera_height_m, 0.0, 0.0});
+  const pl::GridCapture& c = s.capture;
   const ob::PairObstacles r = d.detect_pair(ob::PairBand::visible, c.grey_left, c.grey_right);
   ASSERT_TRUE(r.ok()) << r.ground.message;
-  EXPECT_NEAR(r.ground.plane.height_m, scene.camera_height_m, 0.05);
-  for (const sim::TargetTruth& t : simulated.truth(0)) {
+  EXPECT_NEAR(r.ground.plane.height_m, s.scene.camera_height_m, 0.05);
+  for (const thermovis::sim::TargetTruth& t : s.truths) {
     if (t.id != "standing" && t.id != "pole_a") continue;
     const cv::Rect truth_box = pl::points_box_on_grid(g, pl::Band::visible, t.surface_points_m);
-    double nearest = 1e9;
-    for (const Eigen::Vector3d& p : t.surface_points_m)
-      nearest = std::min(nearest, std::hypot(p.x(), p.z()));
-    const ob::Obstacle* found = nullptr;
-    for (const ob::Obstacle& o : r.obstacles) {
-      if ((o.box & truth_box).area() > 0 &&
-          (found == nullptr ||
-           std::abs(o.distance_m - nearest) < std::abs(found->distance_m - nearest))) {
-        found = &o;
-      }
-    }
+    const double nearest = nearest_m(t);
+    const ob::Obstacle* found = obstacle_over(r.obstacles, truth_box, nearest);
     ASSERT_NE(found, nullptr) << t.id << " at " << nearest << " m, box " << truth_box;
     EXPECT_NEAR(found->distance_m, nearest, 0.06 * nearest) << t.id;
   }
@@ -608,42 +643,27 @@ TEST(DenseDisparity, TheNoiseEstimateIsTheFiltersValue) {
 // as one region at the grid's resolution (ObstacleOptions::refine) ranges it within 3 %.
 TEST(ObstacleDetectorOnSimulatedObstacles, ANarrowObstacleIsRangedOnTheGridsOwnPixels) {
   namespace pl = thermovis::pipeline;
-  namespace sim = thermovis::sim;
-  const auto rig = thermovis::runtime::load_rig(thermovis::runtime::default_rig_path());
-  const sim::Scene scene =
-      thermovis::runtime::load_scene(thermovis::runtime::shipped_scene_path("obstacles"));
-  const sim::SimulatedRig simulated(rig, scene, 1);
-  pl::CapturePipeline pipeline(rig);
+  pl::CapturePipeline pipeline(
+      thermovis::runtime::load_rig(thermovis::runtime::default_rig_path()));
+  const SimulatedCapture s = simulated_capture("obstacles", pipeline);
   const pl::PipelineGeometry& g = pipeline.geometry();
-  sim::FrameSet frames = simulated.allocate();
-  simulated.render(0, frames);
-  const pl::GridCapture c =
-      pipeline.rectify({frames[sim::Slot::visible_left], frames[sim::Slot::visible_right],
-                        frames[sim::Slot::infrared_left], frames[sim::Slot::infrared_right]});
-  const std::vector<sim::TargetTruth> truths = simulated.truth(0);
-  const auto pole = std::find_if(truths.begin(), truths.end(),
-                                 [](const sim::TargetTruth& t) { return t.id == "pole_18"; });
-  ASSERT_NE(pole, truths.end());
+  const auto pole =
+      std::find_if(s.truths.begin(), s.truths.end(),
+                   [](const thermovis::sim::TargetTruth& t) { return t.id == "pole_18"; });
+  ASSERT_NE(pole, s.truths.end());
   const cv::Rect truth_box = pl::points_box_on_grid(g, pl::Band::visible, pole->surface_points_m);
-  double nearest = 1e9;
-  for (const Eigen::Vector3d& p : pole->surface_points_m)
-    nearest = std::min(nearest, std::hypot(p.x(), p.z()));
+  const double nearest = nearest_m(*pole);
   // The obstacle over the pole's box nearest its distance, with and without the refinement.
   auto ranged = [&](bool refine) {
     ob::ObstacleOptions options;
     options.refine = refine;
     const ob::ObstacleDetector d(g.grid, {{ob::PairBand::visible, g.ranging(pl::Band::visible)}},
                                  g.T_ref_reporting,
-                                 ob::GroundPrior{scene.camera_height_m, 0.0, 0.0}, options);
-    const ob::PairObstacles r = d.detect_pair(ob::PairBand::visible, c.grey_left, c.grey_right);
-    double best = std::numeric_limits<double>::quiet_NaN();
-    for (const ob::Obstacle& o : r.obstacles) {
-      if ((o.box & truth_box).area() > 0 &&
-          !(std::abs(best - nearest) <= std::abs(o.distance_m - nearest))) {
-        best = o.distance_m;
-      }
-    }
-    return best;
+                                 ob::GroundPrior{s.scene.camera_height_m, 0.0, 0.0}, options);
+    const ob::PairObstacles r =
+        d.detect_pair(ob::PairBand::visible, s.capture.grey_left, s.capture.grey_right);
+    const ob::Obstacle* o = obstacle_over(r.obstacles, truth_box, nearest);
+    return o != nullptr ? o->distance_m : std::numeric_limits<double>::quiet_NaN();
   };
   const double refined = ranged(true), stixels = ranged(false);
   ASSERT_TRUE(std::isfinite(refined)) << "no obstacle over the pole's box " << truth_box;
@@ -656,16 +676,9 @@ namespace {
 
 // Capture 0 of the shipped street scene on the pipeline grid.
 thermovis::pipeline::GridCapture street_capture() {
-  namespace pl = thermovis::pipeline;
-  namespace sim = thermovis::sim;
-  const auto rig = thermovis::runtime::load_rig(thermovis::runtime::default_rig_path());
-  const sim::SimulatedRig simulated(
-      rig, thermovis::runtime::load_scene(thermovis::runtime::shipped_scene_path("street")), 1);
-  pl::CapturePipeline pipeline(rig);
-  sim::FrameSet frames = simulated.allocate();
-  simulated.render(0, frames);
-  return pipeline.rectify({frames[sim::Slot::visible_left], frames[sim::Slot::visible_right],
-                           frames[sim::Slot::infrared_left], frames[sim::Slot::infrared_right]});
+  thermovis::pipeline::CapturePipeline pipeline(
+      thermovis::runtime::load_rig(thermovis::runtime::default_rig_path()));
+  return simulated_capture("street", pipeline).capture;
 }
 
 }  // namespace
