@@ -25,6 +25,20 @@ double horizontal_distance(const Eigen::Vector3d& p, const Eigen::Vector3d& n) {
   return (p - n.dot(p) * n).norm();
 }
 
+// An obstacle's nearest stixel, of stixels[begin, end) (not empty).
+const Stixel& nearest_stixel(const std::vector<Stixel>& stixels, std::size_t begin,
+                             std::size_t end) {
+  const Stixel* nearest = &stixels[begin];
+  for (std::size_t i = begin; i < end; ++i) {
+    if (stixels[i].distance_m < nearest->distance_m) nearest = &stixels[i];
+  }
+  return *nearest;
+}
+
+// An obstacle's near face: its stixels no farther than this, within 2 sigma of the nearest one
+// (the nearest alone is biased near by its noise: the least of several noisy distances).
+double near_face_limit_m(const Stixel& nearest) { return nearest.distance_m + 2 * nearest.sigma_m; }
+
 // Buffers of one pair's analysis kept from capture to capture, so that none is allocated per
 // capture once sized: per thread (the detector's methods are const and may run on several
 // threads at once) and per band (the pairs' reduced grids differ in size).
@@ -444,8 +458,7 @@ std::vector<Stixel> ObstacleDetector::stixels(const Pair& p, const cv::Mat& disp
 
 std::vector<Obstacle> ObstacleDetector::cluster(const std::vector<Stixel>& stixels, PairBand band,
                                                 const GroundPlane& ground_reporting,
-                                                std::vector<int>* kept_columns,
-                                                std::vector<std::pair<int, int>>* spans) const {
+                                                std::vector<std::pair<int, int>>& spans) const {
   std::vector<Obstacle> out;
   const int k = options_.reduction;
   std::size_t start = 0;
@@ -454,12 +467,11 @@ std::vector<Obstacle> ObstacleDetector::cluster(const std::vector<Stixel>& stixe
     Obstacle o;
     o.bands = band_bit(band);
     o.stixels = static_cast<int>(end - begin);
-    const Stixel* nearest = &stixels[begin];
+    const Stixel& nearest = nearest_stixel(stixels, begin, end);
     int x0 = grid_.width, x1 = 0, y0 = grid_.height, y1 = 0;
     double far = 0;
     for (std::size_t i = begin; i < end; ++i) {
       const Stixel& s = stixels[i];
-      if (s.distance_m < nearest->distance_m) nearest = &s;
       far = std::max(far, s.distance_m);
       x0 = std::min(x0, s.column * k);
       x1 = std::max(x1, (s.column + 1) * k - 1);
@@ -472,12 +484,11 @@ std::vector<Obstacle> ObstacleDetector::cluster(const std::vector<Stixel>& stixe
     const Eigen::Vector3d& n = ground_reporting.normal;
     const Eigen::Vector3d across = stixels[end - 1].middle_m - stixels[begin].middle_m;
     o.extent_m.x() = (across - n.dot(across) * n).norm();
-    o.extent_m.z() = far - nearest->distance_m;
-    // The near face: the stixels within 2 sigma of the nearest one, at their median (the
-    // nearest alone is biased near by its noise: the least of several noisy distances).
+    o.extent_m.z() = far - nearest.distance_m;
+    // The near face, at its median.
     std::vector<double> near_face, near_sigma;
     for (std::size_t i = begin; i < end; ++i) {
-      if (stixels[i].distance_m <= nearest->distance_m + 2 * nearest->sigma_m) {
+      if (stixels[i].distance_m <= near_face_limit_m(nearest)) {
         near_face.push_back(stixels[i].distance_m);
         near_sigma.push_back(stixels[i].sigma_m);
       }
@@ -486,11 +497,8 @@ std::vector<Obstacle> ObstacleDetector::cluster(const std::vector<Stixel>& stixe
     o.sigma_m = median_of(near_sigma) / std::sqrt(static_cast<double>(near_face.size()));
     o.box = cv::Rect(cv::Point(x0, y0), cv::Point(x1 + 1, y1 + 1));
     // Too far to range: one stixel's sigma over max_sigma_share of the distance.
-    if (nearest->sigma_m > options_.max_sigma_share * o.distance_m) return;
-    for (std::size_t i = begin; i < end && kept_columns != nullptr; ++i) {
-      kept_columns->push_back(static_cast<int>(i));
-    }
-    if (spans != nullptr) spans->emplace_back(static_cast<int>(begin), static_cast<int>(end));
+    if (nearest.sigma_m > options_.max_sigma_share * o.distance_m) return;
+    spans.emplace_back(static_cast<int>(begin), static_cast<int>(end));
     out.push_back(o);
   };
   const auto tolerance = [&](double a_m, double b_m) {
@@ -587,8 +595,7 @@ PairObstacles ObstacleDetector::analyse(PairBand band, const cv::Mat& disparity,
   std::vector<int> ground_pixels;
   out.stixels =
       stixels(p, disparity, points, out.ground.plane, out.ground_reporting, ground_pixels);
-  std::vector<int> kept;
-  out.obstacles = cluster(out.stixels, band, out.ground_reporting, &kept, &out.obstacle_stixels);
+  out.obstacles = cluster(out.stixels, band, out.ground_reporting, out.obstacle_stixels);
   // Free space per reduced column: its kept stixel's distance; the farthest range where the
   // column holds the ground and no obstacle; unknown (NaN) where it holds neither.
   std::vector<float> reduced(static_cast<std::size_t>(r.width), kNan);
@@ -597,9 +604,11 @@ PairObstacles ObstacleDetector::analyse(PairBand band, const cv::Mat& disparity,
       reduced[static_cast<std::size_t>(c)] = static_cast<float>(options_.max_distance_m);
     }
   }
-  for (int i : kept) {
-    const Stixel& s = out.stixels[static_cast<std::size_t>(i)];
-    reduced[static_cast<std::size_t>(s.column)] = static_cast<float>(s.distance_m);
+  for (const auto& [begin, end] : out.obstacle_stixels) {
+    for (int i = begin; i < end; ++i) {
+      const Stixel& s = out.stixels[static_cast<std::size_t>(i)];
+      reduced[static_cast<std::size_t>(s.column)] = static_cast<float>(s.distance_m);
+    }
   }
   for (int x = 0; x < grid_.width; ++x) {
     out.free_space_m[static_cast<std::size_t>(x)] =
@@ -811,12 +820,8 @@ void ObstacleDetector::refine(const Pair& p, const cv::Mat& left, const cv::Mat&
     const auto [begin, end] = out.obstacle_stixels[i];
     // Its near face (the stixels its distance is the median of) as one region of the grid:
     // each stixel's reduced column and its rows.
-    const Stixel* nearest = &out.stixels[static_cast<std::size_t>(begin)];
-    for (int j = begin; j < end; ++j) {
-      const Stixel& st = out.stixels[static_cast<std::size_t>(j)];
-      if (st.distance_m < nearest->distance_m) nearest = &st;
-    }
-    const double reach_m = nearest->distance_m + 2 * nearest->sigma_m;
+    const double reach_m = near_face_limit_m(nearest_stixel(
+        out.stixels, static_cast<std::size_t>(begin), static_cast<std::size_t>(end)));
     const auto column_of = [&](const Stixel& st) {
       return cv::Rect(st.column * k, st.top_row, k, st.base_row - st.top_row + 1);
     };

@@ -285,9 +285,11 @@ class ObstacleDetector {
   std::vector<Stixel> stixels(const Pair& p, const cv::Mat& disparity, const cv::Mat& points,
                               const GroundPlane& ground, const GroundPlane& ground_reporting,
                               std::vector<int>& ground_pixels) const;
+  // The obstacles of a pair's stixels; `spans` takes each one's stixels (PairObstacles::
+  // obstacle_stixels).
   std::vector<Obstacle> cluster(const std::vector<Stixel>& stixels, PairBand band,
-                                const GroundPlane& ground_reporting, std::vector<int>* kept_columns,
-                                std::vector<std::pair<int, int>>* spans) const;
+                                const GroundPlane& ground_reporting,
+                                std::vector<std::pair<int, int>>& spans) const;
 
   camera::RectifiedIntrinsics grid_;
   std::vector<Pair> pairs_;
