@@ -47,6 +47,7 @@ struct PairScratch {
   cv::Mat stand;                                // CV_8U, ObstacleDetector::stixels
   std::vector<std::pair<int, double>> members;  // a stixel's rows and disparities
   std::vector<double> ds;                       // their disparities
+  std::vector<double> slopes;                   // of pairs of them (px per row)
 };
 
 PairScratch& scratch_for(PairBand band) {
@@ -350,8 +351,10 @@ std::vector<Stixel> ObstacleDetector::stixels(const Pair& p, const cv::Mat& disp
   const double f_baseline = r.f * p.reduced.baseline_m;
   const int k = options_.reduction;
   // Each pixel: whether it stands above the ground by more than min_height_m and 3 sigma of its
-  // height's noise (its point moves along its ray by B^2 / (f A) per px); whether it is on the
-  // ground (within min_height_m), counted per column for the free space.
+  // height's noise (its point moves along its ray by B^2 / (f A) per px: kStands), only by more
+  // than min_height_m (kMayStand: a far pixel of a short object, or the road's noise); whether
+  // it is on the ground (within min_height_m), counted per column for the free space.
+  constexpr std::uint8_t kMayStand = 1, kStands = 2;
   PairScratch& scratch = scratch_for(p.setup.band);
   cv::Mat& stand = scratch.stand;
   stand.create(points.size(), CV_8U);  // every pixel written below
@@ -369,10 +372,10 @@ std::vector<Stixel> ObstacleDetector::stixels(const Pair& p, const cv::Mat& disp
       if (!std::isfinite(P[2])) continue;
       const float down = n.x() * P[0] + n.y() * P[1] + n.z() * P[2];
       const float height = h - down;
-      const float B = std::sqrt(P.dot(P));
-      if (height > min_height + std::abs(down) * B * noise) {
-        st[c] = 1;
-      } else if (std::abs(height) < min_height) {
+      if (height > min_height) {
+        const float B = std::sqrt(P.dot(P));
+        st[c] = height > min_height + std::abs(down) * B * noise ? kStands : kMayStand;
+      } else if (height > -min_height) {
         ++ground_pixels[static_cast<std::size_t>(c)];
       }
     }
@@ -380,78 +383,184 @@ std::vector<Stixel> ObstacleDetector::stixels(const Pair& p, const cv::Mat& disp
   std::vector<Stixel> out;
   std::vector<std::pair<int, double>>& members = scratch.members;  // row, disparity
   std::vector<double>& ds = scratch.ds;
-  for (int c = 0; c < r.width; ++c) {
-    auto stands = [&](int row) { return stand.at<std::uint8_t>(row, c) != 0; };
-    for (int row = r.height - 1; row >= 0; --row) {
-      const float d0 = disparity.at<float>(row, c);
-      if (!(d0 > 0) || !stands(row)) continue;
-      // A candidate base: collect upwards the pixels at its disparity that stand above the
-      // ground (far ground rows differ little in disparity: they are not a stixel).
-      members.clear();
-      double mean = d0;
-      int gap = 0, top = row;
-      for (int up = row; up >= 0; --up) {
-        const float d = disparity.at<float>(up, c);
-        const double tol = options_.stixel_tolerance_px + options_.stixel_tolerance_share * mean;
-        if (d > 0 && std::abs(d - mean) <= tol && stands(up)) {
-          members.emplace_back(up, d);
-          mean += (d - mean) / static_cast<double>(members.size());
-          gap = 0;
-          top = up;
-        } else if (++gap > options_.max_gap_rows) {
-          break;
+  int c = 0;
+  // From the candidate base `row` upwards, the pixels of at least `level` at its disparity (far
+  // ground rows differ little in disparity: they are not a stixel); the run's top row.
+  auto collect = [&](int row, std::uint8_t level) {
+    members.clear();
+    double mean = disparity.at<float>(row, c);
+    int gap = 0, top = row;
+    for (int up = row; up >= 0; --up) {
+      const float d = disparity.at<float>(up, c);
+      const double tol = options_.stixel_tolerance_px + options_.stixel_tolerance_share * mean;
+      if (d > 0 && std::abs(d - mean) <= tol && stand.at<std::uint8_t>(up, c) >= level) {
+        members.emplace_back(up, d);
+        mean += (d - mean) / static_cast<double>(members.size());
+        gap = 0;
+        top = up;
+      } else if (++gap > options_.max_gap_rows) {
+        break;
+      }
+    }
+    return std::pair<int, double>(top, mean);
+  };
+  // The same run continued downwards over pixels at its disparity whatever their height (a
+  // short object's lowest rows, within min_height_m of the ground); its base row.
+  auto extend_down = [&](int row, double mean) {
+    int gap = 0, base = row;
+    for (int down = row + 1; down < r.height; ++down) {
+      const float d = disparity.at<float>(down, c);
+      const double tol = options_.stixel_tolerance_px + options_.stixel_tolerance_share * mean;
+      if (d > 0 && std::abs(d - mean) <= tol) {
+        members.emplace_back(down, d);
+        mean += (d - mean) / static_cast<double>(members.size());
+        gap = 0;
+        base = down;
+      } else if (++gap > options_.max_gap_rows) {
+        break;
+      }
+    }
+    return base;
+  };
+  enum class Verdict { stixel, not_standing, too_far };
+  // The run of `members` from `row` up to `top` as a stixel, when it stands on the ground: its
+  // base at its disparity is on the ground, give or take the height's noise, one row, and below
+  // the ground the rows the matcher's block smears it down by (a false match floating over the
+  // road is not; nor is the horizon's edge, whose disparity is an error of the edge's slope).
+  // With `vertical`, also only when its disparity keeps to a vertical surface's along its rows
+  // rather than the ground's (ObstacleOptions::vertical_max_share).
+  auto make_stixel = [&](int row, int top, bool vertical, Stixel& s) {
+    ds.clear();
+    for (const auto& m : members) ds.push_back(m.second);
+    const auto [d_med, deviation] = median_and_deviation(ds);
+    const double spread = std::max(1.4826 * deviation, options_.disparity_sigma_px);
+    Eigen::Vector3d top_p, mid_p, near_p, far_p, base_p;
+    const double mid_row = 0.5 * (row + top);
+    const double d_far = std::max(d_med - 0.5, 0.05);
+    if (!point_at(p.reduced, c, row, d_med, base_p) || !point_at(p.reduced, c, top, d_med, top_p) ||
+        !point_at(p.reduced, c, mid_row, d_med, mid_p) ||
+        !point_at(p.reduced, c, mid_row, d_med + 0.5, near_p) ||
+        !point_at(p.reduced, c, mid_row, d_far, far_p)) {
+      return Verdict::not_standing;
+    }
+    const double sigma_d =
+        std::sqrt(options_.systematic_disparity_px * options_.systematic_disparity_px +
+                  spread * spread / static_cast<double>(members.size()));
+    const double B = mid_p.norm();
+    const double row_m = B / r.f;  // one reduced row at its distance
+    const double sigma_h = B * B / f_baseline * sigma_d;
+    const double foot = ground.height_of(base_p);
+    const double height = ground.height_of(top_p);
+    const double foot_noise = 3 * sigma_h * std::abs(ground.normal.dot(base_p)) / B;
+    if (foot > options_.min_obstacle_height_m + row_m + foot_noise ||
+        -foot > options_.min_obstacle_height_m + options_.foot_rows * row_m + foot_noise ||
+        height <
+            options_.min_obstacle_height_m + 3 * sigma_h * std::abs(ground.normal.dot(top_p)) / B) {
+      return Verdict::not_standing;
+    }
+    if (vertical) {
+      // The disparity the ground would gain from the run's top row down to its base (its
+      // height there at the run's disparity over the height one px of disparity adds on the
+      // ray), against what the run's own rows gain.
+      const double per_d =
+          (ground.height_of(near_p) - ground.height_of(far_p)) / (d_med + 0.5 - d_far);
+      const double ground_gain = (height - foot) / per_d;
+      // The run's own slope (Theil-Sen: the median of its pairs' slopes, which a stray row at
+      // either end does not move).
+      std::vector<double>& slopes = scratch.slopes;
+      slopes.clear();
+      for (std::size_t i = 0; i < members.size(); ++i) {
+        for (std::size_t j = i + 1; j < members.size(); ++j) {
+          if (members[i].first != members[j].first) {
+            slopes.push_back((members[i].second - members[j].second) /
+                             (members[i].first - members[j].first));
+          }
         }
       }
-      if (static_cast<int>(members.size()) < options_.min_stixel_rows) continue;
-      ds.clear();
-      for (const auto& m : members) ds.push_back(m.second);
-      const auto [d_med, deviation] = median_and_deviation(ds);
-      const double spread = std::max(1.4826 * deviation, options_.disparity_sigma_px);
-      Eigen::Vector3d top_p, mid_p, near_p, far_p, base_p;
-      const double mid_row = 0.5 * (row + top);
-      if (!point_at(p.reduced, c, row, d_med, base_p) ||
-          !point_at(p.reduced, c, top, d_med, top_p) ||
-          !point_at(p.reduced, c, mid_row, d_med, mid_p) ||
-          !point_at(p.reduced, c, mid_row, d_med + 0.5, near_p) ||
-          !point_at(p.reduced, c, mid_row, std::max(d_med - 0.5, 0.05), far_p)) {
-        continue;
+      const double own_gain = slopes.empty() ? 0.0 : median_of(slopes) * (row - top);
+      // A run reaching the horizon is not judged so: its rows above it have no ground to
+      // differ from (the horizon's edge matched at one disparity over the block), and an
+      // object that tall has rows enough that stand one by one.
+      if (!(per_d > 0) || height >= ground.height_m ||
+          ground_gain < options_.vertical_min_ground_gain_px ||
+          std::abs(own_gain) > options_.vertical_max_share * ground_gain) {
+        return Verdict::not_standing;
       }
-      // It stands on the ground: its base at its disparity is on the ground, give or take the
-      // height's noise, one row, and below the ground the rows the matcher's block smears it
-      // down by (a false match floating over the road is not; nor is the horizon's edge, whose
-      // disparity is an error of the edge's slope).
-      const double sigma_d =
-          std::sqrt(options_.systematic_disparity_px * options_.systematic_disparity_px +
-                    spread * spread / static_cast<double>(members.size()));
-      const double B = mid_p.norm();
-      const double row_m = B / r.f;  // one reduced row at its distance
-      const double sigma_h = B * B / f_baseline * sigma_d;
-      const double foot = ground.height_of(base_p);
-      const double height = ground.height_of(top_p);
-      const double foot_noise = 3 * sigma_h * std::abs(ground.normal.dot(base_p)) / B;
-      if (foot > options_.min_obstacle_height_m + row_m + foot_noise ||
-          -foot > options_.min_obstacle_height_m + options_.foot_rows * row_m + foot_noise ||
-          height < options_.min_obstacle_height_m +
-                       3 * sigma_h * std::abs(ground.normal.dot(top_p)) / B) {
-        row = top;
-        continue;
-      }
-      Stixel s;
-      s.column = c;
-      s.base_row = (row + 1) * k - 1 + p.first_row;
-      s.top_row = top * k + p.first_row;
-      s.disparity_px = d_med;
-      s.middle_m = p.T_reporting_rect * mid_p;
-      s.distance_m = horizontal_distance(s.middle_m, ground_reporting.normal);
-      if (s.distance_m > options_.max_distance_m) break;  // the column's first is too far
-      const double per_px =
-          std::abs(horizontal_distance(p.T_reporting_rect * far_p, ground_reporting.normal) -
-                   horizontal_distance(p.T_reporting_rect * near_p, ground_reporting.normal));
-      s.sigma_m = per_px * sigma_d;
-      s.height_m = height;
-      out.push_back(s);
-      break;  // the column's first obstacle only
     }
+    s = Stixel{};
+    s.column = c;
+    s.base_row = (row + 1) * k - 1 + p.first_row;
+    s.top_row = top * k + p.first_row;
+    s.disparity_px = d_med;
+    s.middle_m = p.T_reporting_rect * mid_p;
+    s.distance_m = horizontal_distance(s.middle_m, ground_reporting.normal);
+    if (s.distance_m > options_.max_distance_m) return Verdict::too_far;
+    const double per_px =
+        std::abs(horizontal_distance(p.T_reporting_rect * far_p, ground_reporting.normal) -
+                 horizontal_distance(p.T_reporting_rect * near_p, ground_reporting.normal));
+    s.sigma_m = per_px * sigma_d;
+    s.height_m = height;
+    return Verdict::stixel;
+  };
+  const int min_rows = options_.min_stixel_rows;
+  // The fitted ground's horizon (its row's elevation is the plane's, rows being elevations).
+  const double horizon_row = r.cy + r.f * std::atan2(-ground.normal.z(), ground.normal.y());
+  for (c = 0; c < r.width; ++c) {
+    // The column's first run from the bottom whose pixels stand one by one.
+    Stixel found;
+    int found_row = -1;  // reduced row of its base (-1: none)
+    for (int row = r.height - 1; row >= 0; --row) {
+      if (!(disparity.at<float>(row, c) > 0) || stand.at<std::uint8_t>(row, c) != kStands) continue;
+      const int top = collect(row, kStands).first;
+      if (static_cast<int>(members.size()) < min_rows) continue;
+      const Verdict v = make_stixel(row, top, false, found);
+      if (v == Verdict::stixel) found_row = row;
+      if (v != Verdict::not_standing) break;  // the column's first obstacle only
+      row = top;
+    }
+    // Where there is none, the first run whose pixels only may stand one by one but whose
+    // disparity is a vertical surface's as a whole: a short object whose height is within its
+    // pixels' noise (a 0.5 m box at 20-30 m). Not below a stixel found: a column has one, and
+    // such a run under a farther object (the parked car's lower rear under the 35 m pole) hid
+    // the object in more columns than it found new ones.
+    if (options_.vertical_max_share > 0 && found_row < 0) {
+      const int min_span = options_.dense.block_size + options_.vertical_min_rows_beyond_block;
+      // Nearer than vertical_min_distance_m the pixels of anything min_obstacle_height_m tall
+      // stand one by one: the runs left there are the mixed blocks at an object's sides.
+      const double max_ground_rows =
+          r.f * std::atan2(ground.height_m, options_.vertical_min_distance_m);
+      // So no run's base lies lower than the ground that far away (two rows for the ground's
+      // roll across the grid).
+      const int lowest =
+          std::min(r.height - 1, static_cast<int>(horizon_row + max_ground_rows) + 2);
+      for (int row = lowest; row >= 0; --row) {
+        if (!(disparity.at<float>(row, c) > 0) || stand.at<std::uint8_t>(row, c) == 0) continue;
+        const auto [top, mean] = collect(row, kMayStand);
+        const int base = extend_down(row, mean);
+        Verdict v = Verdict::not_standing;
+        Stixel s;
+        Eigen::Vector3d at;
+        if (base - top + 1 >= min_span && static_cast<int>(members.size()) >= min_rows &&
+            point_at(p.reduced, c, base, mean, at)) {
+          // The ground at the run's distance this many rows below the horizon (rows are
+          // angles of elevation).
+          const double ground_rows =
+              r.f * std::atan2(ground.height_m, horizontal_distance(at, ground.normal));
+          if (ground_rows >= options_.vertical_min_rows_below_horizon &&
+              ground_rows <= max_ground_rows) {
+            v = make_stixel(base, top, true, s);
+          }
+        }
+        if (v == Verdict::too_far) break;
+        if (v == Verdict::stixel) {
+          found = s;
+          found_row = base;
+          break;
+        }
+        row = top;  // the next candidate above this run
+      }
+    }
+    if (found_row >= 0) out.push_back(found);
   }
   return out;
 }

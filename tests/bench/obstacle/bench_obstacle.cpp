@@ -1,7 +1,8 @@
 // The obstacle stage (common/obstacle) on one capture of the simulated street scene, rectified
 // onto the pipeline grid (0.5 of the visible pair's default grid, 936 x 566 for the paper rig),
 // one core: both pairs (the default; with the ground tracked from frame to frame; without
-// narrow obstacles ranged again on the grid's pixels, ObstacleOptions::refine), the
+// narrow obstacles ranged again on the grid's pixels, ObstacleOptions::refine; without runs
+// that stand as a whole, ObstacleOptions::vertical_max_share), the
 // visible pair alone, the infrared pair alone, and the parts of one visible pair (dense
 // disparity; the ground, stixels and obstacles after it). The real-time budget is 5 ms of CPU
 // per capture for the whole stage (issue 18).
@@ -44,9 +45,13 @@ struct Fixture {
     unrefined.refine = false;
     stixels_only =
         std::make_unique<ob::ObstacleDetector>(g.grid, pairs, g.T_ref_reporting, prior, unrefined);
+    ob::ObstacleOptions pixels_standing;
+    pixels_standing.vertical_max_share = 0;
+    no_whole_runs = std::make_unique<ob::ObstacleDetector>(g.grid, pairs, g.T_ref_reporting, prior,
+                                                           pixels_standing);
   }
   pl::GridCapture capture;
-  std::unique_ptr<ob::ObstacleDetector> detector, stixels_only;
+  std::unique_ptr<ob::ObstacleDetector> detector, stixels_only, no_whole_runs;
 };
 
 const Fixture& fixture() {
@@ -57,9 +62,12 @@ const Fixture& fixture() {
 
 void BM_ObstaclesBothPairs(benchmark::State& state) {
   const Fixture& f = fixture();
-  const bool refine = state.range(0) == 1;
-  state.SetLabel(refine ? "narrow ones refined" : "stixels only");
-  const ob::ObstacleDetector& detector = refine ? *f.detector : *f.stixels_only;
+  const int variant = static_cast<int>(state.range(0));
+  state.SetLabel(variant == 1   ? "the default"
+                 : variant == 0 ? "narrow ones not refined"
+                                : "no runs standing as a whole");
+  const ob::ObstacleDetector& detector =
+      variant == 1 ? *f.detector : (variant == 0 ? *f.stixels_only : *f.no_whole_runs);
   std::size_t found = 0;
   for (auto _ : state) {
     const ob::ObstacleResult r = detector.detect(f.capture.grey_left, f.capture.grey_right,
@@ -69,7 +77,7 @@ void BM_ObstaclesBothPairs(benchmark::State& state) {
   }
   state.counters["obstacles"] = static_cast<double>(found);
 }
-BENCHMARK(BM_ObstaclesBothPairs)->Arg(1)->Arg(0)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_ObstaclesBothPairs)->Arg(1)->Arg(0)->Arg(2)->Unit(benchmark::kMillisecond);
 
 // The same, each pair's ground searched about the last frame's (GroundTracks): the narrower
 // search of every frame after the first.

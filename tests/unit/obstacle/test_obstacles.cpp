@@ -672,6 +672,42 @@ TEST(ObstacleDetectorOnSimulatedObstacles, ANarrowObstacleIsRangedOnTheGridsOwnP
   EXPECT_LT(std::abs(refined - nearest), std::abs(stixels - nearest));
 }
 
+// The obstacles scene's 0.5 m box at 20 m is 5 reduced rows tall, of which only the top 0.14 m
+// stand above min_height_m + 3 sigma of one pixel's height noise: no stixel of pixels that stand
+// one by one. Its run of rows at one disparity stands as a whole (ObstacleOptions::
+// vertical_max_share: the ground would gain 2 px of disparity over it, it gains none).
+TEST(ObstacleDetectorOnSimulatedObstacles, AShortBoxStandsAsAWholeRun) {
+  namespace pl = thermovis::pipeline;
+  pl::CapturePipeline pipeline(
+      thermovis::runtime::load_rig(thermovis::runtime::default_rig_path()));
+  const SimulatedCapture s = simulated_capture("obstacles", pipeline);
+  const pl::PipelineGeometry& g = pipeline.geometry();
+  const auto box =
+      std::find_if(s.truths.begin(), s.truths.end(),
+                   [](const thermovis::sim::TargetTruth& t) { return t.id == "box_20"; });
+  ASSERT_NE(box, s.truths.end());
+  const cv::Rect truth_box = pl::points_box_on_grid(g, pl::Band::visible, box->surface_points_m);
+  const double nearest = nearest_m(*box);
+  auto detect = [&](double vertical_max_share) {
+    ob::ObstacleOptions options;
+    options.vertical_max_share = vertical_max_share;
+    const ob::ObstacleDetector d(g.grid, {{ob::PairBand::visible, g.ranging(pl::Band::visible)}},
+                                 g.T_ref_reporting,
+                                 ob::GroundPrior{s.scene.camera_height_m, 0.0, 0.0}, options);
+    return d.detect_pair(ob::PairBand::visible, s.capture.grey_left, s.capture.grey_right);
+  };
+  const ob::PairObstacles with = detect(ob::ObstacleOptions{}.vertical_max_share);
+  const ob::PairObstacles without = detect(0.0);
+  ASSERT_TRUE(with.ok()) << with.ground.message;
+  const ob::Obstacle* o = obstacle_over(with.obstacles, truth_box, nearest);
+  ASSERT_NE(o, nullptr) << "no obstacle over the box's " << truth_box;
+  EXPECT_NEAR(o->distance_m, nearest, 0.04 * nearest);
+  EXPECT_LT(o->extent_m.y(), 1.0) << "the box is 0.5 m tall";
+  const ob::Obstacle* w = obstacle_over(without.obstacles, truth_box, nearest);
+  EXPECT_TRUE(w == nullptr || std::abs(w->distance_m - nearest) > 0.1 * nearest)
+      << "found without the run test at " << w->distance_m << " m: this test no longer shows it";
+}
+
 namespace {
 
 // Capture 0 of the shipped street scene on the pipeline grid.

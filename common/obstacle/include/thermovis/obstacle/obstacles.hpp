@@ -12,7 +12,9 @@
 //     than min_height_m and 3 sigma of the height's noise) at one disparity, whose base lies on
 //     the ground and whose top is min_obstacle_height_m above it: that column's stixel, its top
 //     where the disparity leaves the run; its distance the horizontal distance (along the
-//     ground) of the run's median disparity;
+//     ground) of the run's median disparity; in a column without one, the first run whose
+//     pixels stand only as a whole (its disparity a vertical surface's, not the ground's, along
+//     its rows: a short far object, ObstacleOptions::vertical_max_share);
 //  4. neighbouring stixels at about one distance are one obstacle, at its near face's distance;
 //     the free space of a column is the distance to its stixel.
 // Both pairs' obstacles are combined where their boxes overlap at one distance (inverse
@@ -94,6 +96,26 @@ struct ObstacleOptions {
   // A stixel's base at its disparity lies on the ground within min_obstacle_height_m, 3 sigma
   // and one reduced row above it, or this many rows (the block's smear) below it.
   double foot_rows = 4;
+  // A run of pixels at one disparity of which fewer than min_stixel_rows stand one by one (a
+  // far short object: a 0.5 m box at 20 m is 5 reduced rows, of which only the top 0.14 m are
+  // above min_height_m + 3 sigma) is a stixel when it stands as a whole: each pixel above
+  // min_height_m, the run's disparity gaining at most vertical_max_share of what the ground's
+  // would from its top row down to its base, and that at least vertical_min_ground_gain_px (the
+  // stixel world's object/ground test, Badino et al. 2009, on the run's slope). Only in a
+  // column without a stixel of standing pixels, and from vertical_min_distance_m on (nearer,
+  // anything min_obstacle_height_m tall has rows enough that stand one by one). The run must
+  // span the matcher's block and vertical_min_rows_beyond_block more rows: one horizontal edge
+  // (a lane dash's end) gives a block's rows of its disparity, upright to this test. 0: off.
+  // Only for runs whose distance's ground lies at least vertical_min_rows_below_horizon
+  // reduced rows below the horizon (about 31 m on the pipeline grid): nearer the horizon the
+  // matcher's block covers the far road and the horizon's edge at one disparity, and the
+  // empty road gave runs of 7-10 rows at 35-80 m that passed (294 false obstacles per 100
+  // frames, `thermovis bench obstacles --scene obstacles`).
+  double vertical_max_share = 0.35;
+  double vertical_min_ground_gain_px = 1.0;
+  double vertical_min_rows_below_horizon = 9.0;
+  int vertical_min_rows_beyond_block = 2;
+  double vertical_min_distance_m = 12.0;
   int min_obstacle_columns = 2;           // stixels in an obstacle
   double max_sigma_share = 0.08;          // its nearest stixel's sigma over its distance at most
   double cluster_tolerance_m = 0.5;       // neighbouring stixels in one obstacle: this far apart
