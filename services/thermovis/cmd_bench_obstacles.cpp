@@ -50,6 +50,7 @@ struct Options {
   bool share_ground = false;
   bool no_fixed_pattern = false;            // the infrared cameras without their per-pixel offsets
   bool track_ground = false;                // each pair's ground searched about the last capture's
+  bool no_far_band = false;                 // ObstacleOptions::far_band off
   double texture_noise_factor = -1;         // >= 0: DenseOptions::texture_noise_factor
   double counts_texture_noise_factor = -1;  // >= 0: ObstacleOptions::counts_texture_noise_factor
   pl::GridOptions grid;
@@ -207,6 +208,7 @@ int run_bench_obstacles(const Options& opt) {
     obstacle_options.counts_texture_noise_factor = opt.counts_texture_noise_factor;
   }
   obstacle_options.share_ground = opt.share_ground;
+  obstacle_options.far_band = !opt.no_far_band;
   ob::GroundPrior prior;
   prior.camera_height_m = scene.camera_height_m;  // the simulated rig is level
   std::vector<ob::PairSetup> pairs;
@@ -431,6 +433,9 @@ THERMOVIS_COMMAND(
                      "the same for the infrared pair's counts (default: the detector's)");
       app.add_flag("--track-ground", opt->track_ground,
                    "each pair's ground searched about the last capture's (GroundTracks)");
+      app.add_flag("--no-far-band", opt->no_far_band,
+                   "the reduced grid alone: the visible pair not matched again on the grid's "
+                   "own pixels about the horizon");
       app.add_flag("--json", opt->json, "one JSON object");
       app.add_option("--dump", opt->dump,
                      "folder: the first capture of each scene and every empty-road frame with an "

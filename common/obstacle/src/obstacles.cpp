@@ -136,6 +136,7 @@ ObstacleDetector::ObstacleDetector(const camera::RectifiedIntrinsics& grid,
                                   " does not divide the reduction " + std::to_string(k));
     }
     Pair p(setup);
+    p.reduction = k;
     p.prior = plane_in_frame(rig_ground, setup.geometry.T_ref_left_rect);
     p.T_reporting_rect = T_ref_reporting.inverse() * setup.geometry.T_ref_left_rect;
     // The prior's horizon (its ground's row disparity is 0 there), the rows kept above it, and
@@ -168,28 +169,45 @@ ObstacleDetector::ObstacleDetector(const camera::RectifiedIntrinsics& grid,
         std::max(max_disparity_px_, range::max_disparity_for(p.reduced, options.min_distance_m));
     pairs_.push_back(std::move(p));
   }
-  // Each pair's angle tables for triangulate: its left columns, and its right eye's column
-  // c - d at the matchers' 1/16 px steps over the disparity range (other disparities computed).
   for (Pair& p : pairs_) {
-    const camera::RectifiedCamera& g = p.reduced.grid;
-    const int width = g.intrinsics().width;
-    p.sin_left.resize(static_cast<std::size_t>(width));
-    p.cos_left.resize(p.sin_left.size());
-    for (int c = 0; c < width; ++c) {
-      const double alpha = g.alpha_of_column(c);
-      p.sin_left[static_cast<std::size_t>(c)] = std::sin(alpha);
-      p.cos_left[static_cast<std::size_t>(c)] = std::cos(alpha);
-    }
-    p.first_right_step = -kRightSteps * static_cast<int>(std::ceil(max_disparity_px_ + 16));
-    p.sin_right.resize(static_cast<std::size_t>(kRightSteps * width - p.first_right_step));
-    p.cos_right.resize(p.sin_right.size());
-    for (std::size_t i = 0; i < p.sin_right.size(); ++i) {
-      const double a = g.alpha_of_column(
-          static_cast<double>(static_cast<int>(i) + p.first_right_step) / kRightSteps);
-      p.sin_right[i] = std::abs(a) < M_PI / 2 ? std::sin(a) : kNan;
-      p.cos_right[i] = std::cos(a);
-    }
+    angle_tables(p, max_disparity_px_);
     if (!p.reduced.right_centre_m.isZero()) right_rows(p);
+  }
+  // The visible pair on the grid itself, for the far band: its columns' tables (its rows are
+  // the fitted ground's, each capture).
+  for (const Pair& p : pairs_) {
+    if (!options.far_band || k == 1 || p.setup.band != PairBand::visible ||
+        p.setup.image_reduction != 1 || !p.reduced.right_centre_m.isZero()) {
+      continue;
+    }
+    Pair band(p.setup);
+    band.prior = p.prior;
+    band.T_reporting_rect = p.T_reporting_rect;
+    angle_tables(band, range::max_disparity_for(band.reduced, options.far_band_min_distance_m));
+    far_band_ = std::move(band);
+  }
+}
+
+void ObstacleDetector::angle_tables(Pair& p, double max_disparity_px) {
+  // For triangulate: its left columns, and its right eye's column c - d at the matchers' 1/16
+  // px steps over the disparity range (other disparities computed).
+  const camera::RectifiedCamera& g = p.reduced.grid;
+  const int width = g.intrinsics().width;
+  p.sin_left.resize(static_cast<std::size_t>(width));
+  p.cos_left.resize(p.sin_left.size());
+  for (int c = 0; c < width; ++c) {
+    const double alpha = g.alpha_of_column(c);
+    p.sin_left[static_cast<std::size_t>(c)] = std::sin(alpha);
+    p.cos_left[static_cast<std::size_t>(c)] = std::cos(alpha);
+  }
+  p.first_right_step = -kRightSteps * static_cast<int>(std::ceil(max_disparity_px + 16));
+  p.sin_right.resize(static_cast<std::size_t>(kRightSteps * width - p.first_right_step));
+  p.cos_right.resize(p.sin_right.size());
+  for (std::size_t i = 0; i < p.sin_right.size(); ++i) {
+    const double a = g.alpha_of_column(
+        static_cast<double>(static_cast<int>(i) + p.first_right_step) / kRightSteps);
+    p.sin_right[i] = std::abs(a) < M_PI / 2 ? std::sin(a) : kNan;
+    p.cos_right[i] = std::cos(a);
   }
 }
 
@@ -346,10 +364,11 @@ void ObstacleDetector::triangulate(const Pair& p, const cv::Mat& disparity, cv::
 std::vector<Stixel> ObstacleDetector::stixels(const Pair& p, const cv::Mat& disparity,
                                               const cv::Mat& points, const GroundPlane& ground,
                                               const GroundPlane& ground_reporting,
-                                              std::vector<int>& ground_pixels) const {
+                                              std::vector<int>& ground_pixels,
+                                              const std::vector<bool>* columns) const {
   const auto& r = p.reduced.grid.intrinsics();
   const double f_baseline = r.f * p.reduced.baseline_m;
-  const int k = options_.reduction;
+  const int k = p.reduction;
   // Each pixel: whether it stands above the ground by more than min_height_m and 3 sigma of its
   // height's noise (its point moves along its ray by B^2 / (f A) per px: kStands), only by more
   // than min_height_m (kMayStand: a far pixel of a short object, or the road's noise); whether
@@ -502,10 +521,12 @@ std::vector<Stixel> ObstacleDetector::stixels(const Pair& p, const cv::Mat& disp
     s.height_m = height;
     return Verdict::stixel;
   };
-  const int min_rows = options_.min_stixel_rows;
+  // min_stixel_rows of the reduced grid's rows, on a finer one (the far band) as many more.
+  const int min_rows = options_.min_stixel_rows * options_.reduction / k;
   // The fitted ground's horizon (its row's elevation is the plane's, rows being elevations).
   const double horizon_row = r.cy + r.f * std::atan2(-ground.normal.z(), ground.normal.y());
   for (c = 0; c < r.width; ++c) {
+    if (columns != nullptr && !(*columns)[static_cast<std::size_t>(c)]) continue;
     // The column's first run from the bottom whose pixels stand one by one.
     Stixel found;
     int found_row = -1;  // reduced row of its base (-1: none)
@@ -544,10 +565,10 @@ std::vector<Stixel> ObstacleDetector::stixels(const Pair& p, const cv::Mat& disp
             point_at(p.reduced, c, base, mean, at)) {
           // The ground at the run's distance this many rows below the horizon (rows are
           // angles of elevation).
-          const double ground_rows =
-              r.f * std::atan2(ground.height_m, horizontal_distance(at, ground.normal));
+          const double distance = horizontal_distance(at, ground.normal);
+          const double ground_rows = r.f * std::atan2(ground.height_m, distance);
           if (ground_rows >= options_.vertical_min_rows_below_horizon &&
-              ground_rows <= max_ground_rows) {
+              ground_rows <= max_ground_rows && distance <= options_.vertical_max_distance_m) {
             v = make_stixel(base, top, true, s);
           }
         }
@@ -824,6 +845,7 @@ cv::Mat ObstacleDetector::disparity(PairBand band, const cv::Mat& left,
 PairObstacles ObstacleDetector::detect_pair(PairBand band, const cv::Mat& left,
                                             const cv::Mat& right) const {
   PairObstacles out = from_disparity(band, disparity(band, left, right));
+  add_far_band(pair(band), left, right, out);
   refine(pair(band), left, right, out);
   return out;
 }
@@ -831,6 +853,7 @@ PairObstacles ObstacleDetector::detect_pair(PairBand band, const cv::Mat& left,
 PairObstacles ObstacleDetector::detect_pair(PairBand band, const cv::Mat& left,
                                             const cv::Mat& right, GroundTracker& tracker) const {
   PairObstacles out = analyse(band, disparity(band, left, right), nullptr, &tracker);
+  add_far_band(pair(band), left, right, out);
   refine(pair(band), left, right, out);
   return out;
 }
@@ -864,6 +887,7 @@ ObstacleResult ObstacleDetector::detect_with(const cv::Mat& visible_left,
   }
   std::vector<PairObstacles> found = analyse_pairs(disparities, tracks);
   for (std::size_t i = 0; i < found.size(); ++i) {
+    add_far_band(pair(found[i].band), *images[i].first, *images[i].second, found[i]);
     refine(pair(found[i].band), *images[i].first, *images[i].second, found[i]);
   }
   return combine(std::move(found));
@@ -904,6 +928,121 @@ std::vector<PairObstacles> ObstacleDetector::analyse_pairs(
     }
   }
   return found;
+}
+
+void ObstacleDetector::add_far_band(const Pair& p, const cv::Mat& left, const cv::Mat& right,
+                                    PairObstacles& out) const {
+  const int type = left.type();
+  if (!far_band_ || p.setup.band != far_band_->setup.band || !out.ok() ||
+      left.size() != cv::Size(grid_.width, grid_.height) || right.size() != left.size() ||
+      right.type() != type || (type != CV_8UC1 && type != CV_8UC3)) {
+    return;
+  }
+  // The rows: from a block above the fitted ground's horizon (what stands on the ground beyond
+  // far_band_min_distance_m and is under the camera's height is below it) down to that
+  // ground's row, the block's smear and the rows a stixel's foot may reach below it.
+  const GroundPlane& ground = out.ground.plane;
+  const double beta_horizon = std::atan2(-ground.normal.z(), ground.normal.y());
+  const int block = options_.dense.block_size;
+  const int first =
+      std::max(0, static_cast<int>(std::floor(grid_.cy + grid_.f * beta_horizon)) - 2 * block);
+  const int last = std::min(
+      grid_.height,
+      static_cast<int>(std::ceil(
+          grid_.cy + grid_.f * (beta_horizon +
+                                std::atan2(ground.height_m, options_.far_band_min_distance_m)))) +
+          static_cast<int>(options_.foot_rows) + 2 * block);
+  if (last - first < 4 * block) return;
+  Pair band = *far_band_;
+  band.first_row = first;
+  camera::RectifiedIntrinsics r = grid_;
+  r.height = last - first;
+  r.cy = grid_.cy - first;
+  band.reduced.grid = camera::RectifiedCamera(r);
+  band.row_beta.resize(static_cast<std::size_t>(r.height));
+  for (int row = 0; row < r.height; ++row) {
+    band.row_beta[static_cast<std::size_t>(row)] = (row - r.cy) / r.f;
+  }
+  const cv::Rect rows(0, first, grid_.width, r.height);
+  cv::Mat left8, right8;
+  grey_pair(left(rows), right(rows), left8, right8);
+  DenseOptions dense = options_.dense;
+  dense.texture_threshold = block_texture_threshold(left8, dense);
+  dense.texture_noise_factor = 0;
+  const cv::Mat disparity = dense_disparity(
+      left8, right8, range::max_disparity_for(band.reduced, options_.far_band_min_distance_m),
+      dense);
+  thread_local cv::Mat points;
+  triangulate(band, disparity, points, true);
+  triangulate(band, disparity, points, false);
+  // Only the grid columns of reduced columns without a stixel.
+  const int k = options_.reduction;
+  const int width = grid_.width / k;
+  std::vector<bool> columns(static_cast<std::size_t>(grid_.width), true);
+  for (const Stixel& s : out.stixels) {
+    for (int x = s.column * k; x < std::min((s.column + 1) * k, grid_.width); ++x) {
+      columns[static_cast<std::size_t>(x)] = false;
+    }
+  }
+  std::vector<int> ground_pixels;
+  const std::vector<Stixel> found =
+      stixels(band, disparity, points, ground, out.ground_reporting, ground_pixels, &columns);
+  // The nearest of each reduced column's grid columns, when a second of the grid columns from
+  // one before to one after them has one at about its distance (one grid column alone was the
+  // horizon's edge over the far road: 2 false obstacles per 100 empty-road frames).
+  std::vector<int> at_column(static_cast<std::size_t>(grid_.width), -1);
+  for (std::size_t i = 0; i < found.size(); ++i) {
+    const Stixel& s = found[i];
+    if (s.distance_m >= options_.far_band_min_distance_m &&
+        s.distance_m <= options_.far_band_max_distance_m) {
+      at_column[static_cast<std::size_t>(s.column)] = static_cast<int>(i);
+    }
+  }
+  std::vector<int> nearest(static_cast<std::size_t>(width), -1);
+  for (int c = 0; c < width; ++c) {
+    int& at = nearest[static_cast<std::size_t>(c)];
+    for (int x = c * k; x < (c + 1) * k; ++x) {
+      const int i = at_column[static_cast<std::size_t>(x)];
+      if (i >= 0 && (at < 0 || found[static_cast<std::size_t>(i)].disparity_px >
+                                   found[static_cast<std::size_t>(at)].disparity_px)) {
+        at = i;
+      }
+    }
+    if (at < 0) continue;
+    const double d = found[static_cast<std::size_t>(at)].distance_m;
+    int alike = 0;
+    for (int x = std::max(0, c * k - 1); x < std::min(grid_.width, (c + 1) * k + 1); ++x) {
+      const int i = at_column[static_cast<std::size_t>(x)];
+      alike += i >= 0 && std::abs(found[static_cast<std::size_t>(i)].distance_m - d) <=
+                             options_.cluster_tolerance_m + options_.cluster_tolerance_share * d;
+    }
+    if (alike < 2) at = -1;
+  }
+  std::vector<bool> added(static_cast<std::size_t>(width), false);
+  for (int c = 0; c < width; ++c) {
+    const int at = nearest[static_cast<std::size_t>(c)];
+    if (at < 0) continue;
+    Stixel s = found[static_cast<std::size_t>(at)];
+    s.column = c;
+    s.disparity_px /= k;  // reduced px, as the others'
+    out.stixels.push_back(s);
+    added[static_cast<std::size_t>(c)] = true;
+  }
+  if (std::none_of(added.begin(), added.end(), [](bool a) { return a; })) return;
+  std::stable_sort(out.stixels.begin(), out.stixels.end(),
+                   [](const Stixel& a, const Stixel& b) { return a.column < b.column; });
+  out.obstacle_stixels.clear();
+  out.obstacles = cluster(out.stixels, p.setup.band, out.ground_reporting, out.obstacle_stixels);
+  // The free space of the columns now in an obstacle: its stixel's distance.
+  for (const auto& [begin, end] : out.obstacle_stixels) {
+    for (int i = begin; i < end; ++i) {
+      const Stixel& s = out.stixels[static_cast<std::size_t>(i)];
+      if (!added[static_cast<std::size_t>(s.column)]) continue;
+      for (int x = s.column * k; x < std::min((s.column + 1) * k, grid_.width); ++x) {
+        out.free_space_m[static_cast<std::size_t>(x)] = static_cast<float>(s.distance_m);
+      }
+    }
+  }
 }
 
 void ObstacleDetector::refine(const Pair& p, const cv::Mat& left, const cv::Mat& right,

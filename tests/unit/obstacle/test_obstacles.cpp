@@ -672,40 +672,79 @@ TEST(ObstacleDetectorOnSimulatedObstacles, ANarrowObstacleIsRangedOnTheGridsOwnP
   EXPECT_LT(std::abs(refined - nearest), std::abs(stixels - nearest));
 }
 
+namespace {
+
+// The obstacle over one of the obstacles scene's targets (nullptr: none within 10 % of its
+// nearest point's distance), by the visible pair with `options`; and that distance.
+struct ObstacleOverTarget {
+  const ob::Obstacle* obstacle = nullptr;
+  double nearest_m = 0;
+  ob::PairObstacles found;
+};
+
+ObstacleOverTarget obstacle_over_target(const SimulatedCapture& s,
+                                        const thermovis::pipeline::CapturePipeline& pipeline,
+                                        const std::string& id, const ob::ObstacleOptions& options) {
+  namespace pl = thermovis::pipeline;
+  const pl::PipelineGeometry& g = pipeline.geometry();
+  const auto target =
+      std::find_if(s.truths.begin(), s.truths.end(),
+                   [&](const thermovis::sim::TargetTruth& t) { return t.id == id; });
+  EXPECT_NE(target, s.truths.end()) << id;
+  ObstacleOverTarget out;
+  if (target == s.truths.end()) return out;
+  const cv::Rect truth_box = pl::points_box_on_grid(g, pl::Band::visible, target->surface_points_m);
+  out.nearest_m = nearest_m(*target);
+  const ob::ObstacleDetector d(g.grid, {{ob::PairBand::visible, g.ranging(pl::Band::visible)}},
+                               g.T_ref_reporting,
+                               ob::GroundPrior{s.scene.camera_height_m, 0.0, 0.0}, options);
+  out.found = d.detect_pair(ob::PairBand::visible, s.capture.grey_left, s.capture.grey_right);
+  const ob::Obstacle* o = obstacle_over(out.found.obstacles, truth_box, out.nearest_m);
+  if (o != nullptr && std::abs(o->distance_m - out.nearest_m) <= 0.1 * out.nearest_m) {
+    out.obstacle = o;
+  }
+  return out;
+}
+
+}  // namespace
+
 // The obstacles scene's 0.5 m box at 20 m is 5 reduced rows tall, of which only the top 0.14 m
 // stand above min_height_m + 3 sigma of one pixel's height noise: no stixel of pixels that stand
 // one by one. Its run of rows at one disparity stands as a whole (ObstacleOptions::
-// vertical_max_share: the ground would gain 2 px of disparity over it, it gains none).
+// vertical_max_share: the ground would gain 2 px of disparity over it, it gains none). On the
+// reduced grid alone (the far band, which finds it on the grid's own pixels, off).
 TEST(ObstacleDetectorOnSimulatedObstacles, AShortBoxStandsAsAWholeRun) {
-  namespace pl = thermovis::pipeline;
-  pl::CapturePipeline pipeline(
+  thermovis::pipeline::CapturePipeline pipeline(
       thermovis::runtime::load_rig(thermovis::runtime::default_rig_path()));
   const SimulatedCapture s = simulated_capture("obstacles", pipeline);
-  const pl::PipelineGeometry& g = pipeline.geometry();
-  const auto box =
-      std::find_if(s.truths.begin(), s.truths.end(),
-                   [](const thermovis::sim::TargetTruth& t) { return t.id == "box_20"; });
-  ASSERT_NE(box, s.truths.end());
-  const cv::Rect truth_box = pl::points_box_on_grid(g, pl::Band::visible, box->surface_points_m);
-  const double nearest = nearest_m(*box);
-  auto detect = [&](double vertical_max_share) {
-    ob::ObstacleOptions options;
-    options.vertical_max_share = vertical_max_share;
-    const ob::ObstacleDetector d(g.grid, {{ob::PairBand::visible, g.ranging(pl::Band::visible)}},
-                                 g.T_ref_reporting,
-                                 ob::GroundPrior{s.scene.camera_height_m, 0.0, 0.0}, options);
-    return d.detect_pair(ob::PairBand::visible, s.capture.grey_left, s.capture.grey_right);
-  };
-  const ob::PairObstacles with = detect(ob::ObstacleOptions{}.vertical_max_share);
-  const ob::PairObstacles without = detect(0.0);
-  ASSERT_TRUE(with.ok()) << with.ground.message;
-  const ob::Obstacle* o = obstacle_over(with.obstacles, truth_box, nearest);
-  ASSERT_NE(o, nullptr) << "no obstacle over the box's " << truth_box;
-  EXPECT_NEAR(o->distance_m, nearest, 0.04 * nearest);
-  EXPECT_LT(o->extent_m.y(), 1.0) << "the box is 0.5 m tall";
-  const ob::Obstacle* w = obstacle_over(without.obstacles, truth_box, nearest);
-  EXPECT_TRUE(w == nullptr || std::abs(w->distance_m - nearest) > 0.1 * nearest)
-      << "found without the run test at " << w->distance_m << " m: this test no longer shows it";
+  ob::ObstacleOptions with, without;
+  with.far_band = without.far_band = false;
+  without.vertical_max_share = 0;
+  const ObstacleOverTarget a = obstacle_over_target(s, pipeline, "box_20", with);
+  ASSERT_TRUE(a.found.ok()) << a.found.ground.message;
+  ASSERT_NE(a.obstacle, nullptr) << "no obstacle over the box at " << a.nearest_m << " m";
+  EXPECT_NEAR(a.obstacle->distance_m, a.nearest_m, 0.04 * a.nearest_m);
+  EXPECT_LT(a.obstacle->extent_m.y(), 1.0) << "the box is 0.5 m tall";
+  EXPECT_EQ(obstacle_over_target(s, pipeline, "box_20", without).obstacle, nullptr)
+      << "found without the run test: this test no longer shows it";
+}
+
+// The boxes at 30 and 40 m are 3.5 and 2.6 reduced rows tall, under the matcher's 7-row block:
+// the reduced grid finds neither. The far band (ObstacleOptions::far_band: the visible pair
+// matched again on the grid's own pixels about the horizon) finds both within 5 %.
+TEST(ObstacleDetectorOnSimulatedObstacles, FarShortBoxesAreFoundInTheFarBand) {
+  thermovis::pipeline::CapturePipeline pipeline(
+      thermovis::runtime::load_rig(thermovis::runtime::default_rig_path()));
+  const SimulatedCapture s = simulated_capture("obstacles", pipeline);
+  ob::ObstacleOptions reduced_only;
+  reduced_only.far_band = false;
+  for (const std::string id : {"box_30", "box_40"}) {
+    const ObstacleOverTarget a = obstacle_over_target(s, pipeline, id, {});
+    ASSERT_NE(a.obstacle, nullptr) << "no obstacle over " << id << " at " << a.nearest_m << " m";
+    EXPECT_NEAR(a.obstacle->distance_m, a.nearest_m, 0.05 * a.nearest_m) << id;
+    EXPECT_EQ(obstacle_over_target(s, pipeline, id, reduced_only).obstacle, nullptr)
+        << id << " found on the reduced grid alone: this test no longer shows the far band";
+  }
 }
 
 namespace {

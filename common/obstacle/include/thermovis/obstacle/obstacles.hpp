@@ -16,7 +16,10 @@
 //     pixels stand only as a whole (its disparity a vertical surface's, not the ground's, along
 //     its rows: a short far object, ObstacleOptions::vertical_max_share);
 //  4. neighbouring stixels at about one distance are one obstacle, at its near face's distance;
-//     the free space of a column is the distance to its stixel.
+//     the free space of a column is the distance to its stixel;
+//  5. the visible pair, given its images (detect, detect_pair), matched again on the grid's own
+//     pixels in a band of rows about the fitted horizon: its stixels at 18-45 m fill the reduced
+//     columns without one, and the obstacles are clustered again (ObstacleOptions::far_band).
 // Both pairs' obstacles are combined where their boxes overlap at one distance (inverse
 // variance): either pair may be given alone, and both together give one list. A pair whose
 // ground is not found gives its status and no obstacle (on the simulated empty road at night
@@ -28,6 +31,7 @@
 // fitted ground) from that camera's centre.
 #include <Eigen/Geometry>
 #include <opencv2/core/mat.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -114,8 +118,11 @@ struct ObstacleOptions {
   double vertical_max_share = 0.35;
   double vertical_min_ground_gain_px = 1.0;
   double vertical_min_rows_below_horizon = 9.0;
-  int vertical_min_rows_beyond_block = 2;
+  int vertical_min_rows_beyond_block = 3;
   double vertical_min_distance_m = 12.0;
+  // Nor beyond this: on the full grid (`--grid-scale 1`) the empty road's vanishing point gave
+  // such runs at 58-60 m, 6 per 100 frames.
+  double vertical_max_distance_m = 45.0;
   int min_obstacle_columns = 2;           // stixels in an obstacle
   double max_sigma_share = 0.08;          // its nearest stixel's sigma over its distance at most
   double cluster_tolerance_m = 0.5;       // neighbouring stixels in one obstacle: this far apart
@@ -141,6 +148,15 @@ struct ObstacleOptions {
   int refine_max_columns = 4;
   double refine_max_change_px = 2.0;   // grid px
   double refine_systematic_px = 0.05;  // grid px
+  // The visible pair matched again on the grid itself (not reduced) in a band of rows about
+  // the fitted ground's horizon, down to the ground far_band_min_distance_m ahead: there a
+  // 0.5 m box at 30-40 m is 7-5 rows tall, over the matcher's block, where on the reduced grid
+  // it is 3.5-2.6. Its stixels at far_band_min_distance_m or more fill the reduced columns
+  // without one (the nearest of each column's `reduction` grid columns), and the obstacles are
+  // clustered again.
+  bool far_band = true;
+  double far_band_min_distance_m = 18.0;
+  double far_band_max_distance_m = 45.0;
 };
 
 // The first obstacle of one reduced column.
@@ -266,6 +282,7 @@ class ObstacleDetector {
     explicit Pair(const PairSetup& s) : setup(s), reduced(s.geometry) {}
     PairSetup setup;
     range::RangingGeometry reduced;  // the geometry on the reduced grid
+    int reduction = 1;               // grid px per reduced px (the far band: 1)
     int first_row = 0;               // pipeline grid row of the reduced grid's first row's top
     GroundPlane prior;               // in the pair's left rectified frame
     Eigen::Isometry3d T_reporting_rect = Eigen::Isometry3d::Identity();
@@ -283,6 +300,8 @@ class ObstacleDetector {
     cv::Mat right_row_per_disparity;
   };
   const Pair& pair(PairBand band) const;
+  // Pair's angle tables (sin_left ... first_right_step) for disparities up to max_disparity_px.
+  static void angle_tables(Pair& p, double max_disparity_px);
   // Pair::right_map_x and right_map_y of a pair whose right eye is off the grid's axis.
   void right_rows(Pair& p) const;
   // from_disparity; with a tracker, the ground searched about its last one first (detect).
@@ -296,6 +315,9 @@ class ObstacleDetector {
   // Each pair's analysis, a pair without a ground on the other's where share_ground says.
   std::vector<PairObstacles> analyse_pairs(
       const std::vector<std::pair<PairBand, cv::Mat>>& disparities, GroundTracks* tracks) const;
+  // ObstacleOptions::far_band on the visible pair's obstacles, from its images on the grid.
+  void add_far_band(const Pair& p, const cv::Mat& left, const cv::Mat& right,
+                    PairObstacles& out) const;
   // ObstacleOptions::refine on a pair's obstacles, from its images on the grid.
   void refine(const Pair& p, const cv::Mat& left, const cv::Mat& right, PairObstacles& out) const;
   // Each pixel's point (left rectified frame, NaN where it has none) into `points` (made the
@@ -303,10 +325,12 @@ class ObstacleDetector {
   // (GroundOptions::column_step), or the others.
   void triangulate(const Pair& p, const cv::Mat& disparity, cv::Mat& points,
                    bool ground_columns) const;
-  // The columns' stixels; ground_pixels: per reduced column, its pixels on the ground.
+  // The columns' stixels (of those `columns` marks, when given); ground_pixels: per reduced
+  // column, its pixels on the ground.
   std::vector<Stixel> stixels(const Pair& p, const cv::Mat& disparity, const cv::Mat& points,
                               const GroundPlane& ground, const GroundPlane& ground_reporting,
-                              std::vector<int>& ground_pixels) const;
+                              std::vector<int>& ground_pixels,
+                              const std::vector<bool>* columns = nullptr) const;
   // The obstacles of a pair's stixels; `spans` takes each one's stixels (PairObstacles::
   // obstacle_stixels).
   std::vector<Obstacle> cluster(const std::vector<Stixel>& stixels, PairBand band,
@@ -315,6 +339,8 @@ class ObstacleDetector {
 
   camera::RectifiedIntrinsics grid_;
   std::vector<Pair> pairs_;
+  // The visible pair on the grid itself (ObstacleOptions::far_band), its rows set per capture.
+  std::optional<Pair> far_band_;
   Eigen::Isometry3d T_ref_reporting_;
   ObstacleOptions options_;
   double max_disparity_px_ = 0;
