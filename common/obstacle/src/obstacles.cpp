@@ -403,44 +403,33 @@ std::vector<Stixel> ObstacleDetector::stixels(const Pair& p, const cv::Mat& disp
   std::vector<std::pair<int, double>>& members = scratch.members;  // row, disparity
   std::vector<double>& ds = scratch.ds;
   int c = 0;
-  // From the candidate base `row` upwards, the pixels of at least `level` at its disparity (far
-  // ground rows differ little in disparity: they are not a stixel); the run's top row.
-  auto collect = [&](int row, std::uint8_t level) {
-    members.clear();
-    double mean = disparity.at<float>(row, c);
-    int gap = 0, top = row;
-    for (int up = row; up >= 0; --up) {
-      const float d = disparity.at<float>(up, c);
+  // From `from` one row at a time by `step` (-1: up, +1: down), the pixels of at least `level`
+  // at the running mean disparity of `members` (far ground rows differ little in disparity:
+  // they are not a stixel), added to them; the last row taken and the mean.
+  auto walk = [&](int from, int step, std::uint8_t level, double mean) {
+    int gap = 0, last = from - step;
+    for (int row = from; row >= 0 && row < r.height; row += step) {
+      const float d = disparity.at<float>(row, c);
       const double tol = options_.stixel_tolerance_px + options_.stixel_tolerance_share * mean;
-      if (d > 0 && std::abs(d - mean) <= tol && stand.at<std::uint8_t>(up, c) >= level) {
-        members.emplace_back(up, d);
+      if (d > 0 && std::abs(d - mean) <= tol && stand.at<std::uint8_t>(row, c) >= level) {
+        members.emplace_back(row, d);
         mean += (d - mean) / static_cast<double>(members.size());
         gap = 0;
-        top = up;
+        last = row;
       } else if (++gap > options_.max_gap_rows) {
         break;
       }
     }
-    return std::pair<int, double>(top, mean);
+    return std::pair<int, double>(last, mean);
+  };
+  // From the candidate base `row` upwards, the pixels of at least `level`: the run's top row.
+  auto collect = [&](int row, std::uint8_t level) {
+    members.clear();
+    return walk(row, -1, level, disparity.at<float>(row, c));
   };
   // The same run continued downwards over pixels at its disparity whatever their height (a
   // short object's lowest rows, within min_height_m of the ground); its base row.
-  auto extend_down = [&](int row, double mean) {
-    int gap = 0, base = row;
-    for (int down = row + 1; down < r.height; ++down) {
-      const float d = disparity.at<float>(down, c);
-      const double tol = options_.stixel_tolerance_px + options_.stixel_tolerance_share * mean;
-      if (d > 0 && std::abs(d - mean) <= tol) {
-        members.emplace_back(down, d);
-        mean += (d - mean) / static_cast<double>(members.size());
-        gap = 0;
-        base = down;
-      } else if (++gap > options_.max_gap_rows) {
-        break;
-      }
-    }
-    return base;
-  };
+  auto extend_down = [&](int row, double mean) { return walk(row + 1, 1, 0, mean).first; };
   enum class Verdict { stixel, not_standing, too_far };
   // The run of `members` from `row` up to `top` as a stixel, when it stands on the ground: its
   // base at its disparity is on the ground, give or take the height's noise, one row, and below
