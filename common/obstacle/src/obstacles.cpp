@@ -35,6 +35,11 @@ const Stixel& nearest_stixel(const std::vector<Stixel>& stixels, std::size_t beg
   return *nearest;
 }
 
+// How far apart two stixels of one obstacle may range, the nearer at distance_m.
+double same_obstacle_within_m(const ObstacleOptions& options, double distance_m) {
+  return options.cluster_tolerance_m + options.cluster_tolerance_share * distance_m;
+}
+
 // An obstacle's near face: its stixels no farther than this, within 2 sigma of the nearest one
 // (the nearest alone is biased near by its noise: the least of several noisy distances).
 double near_face_limit_m(const Stixel& nearest) { return nearest.distance_m + 2 * nearest.sigma_m; }
@@ -621,7 +626,7 @@ std::vector<Obstacle> ObstacleDetector::cluster(const std::vector<Stixel>& stixe
     out.push_back(o);
   };
   const auto tolerance = [&](double a_m, double b_m) {
-    return options_.cluster_tolerance_m + options_.cluster_tolerance_share * std::min(a_m, b_m);
+    return same_obstacle_within_m(options_, std::min(a_m, b_m));
   };
   for (std::size_t i = 1; i <= stixels.size(); ++i) {
     if (i < stixels.size()) {
@@ -987,9 +992,9 @@ void ObstacleDetector::add_far_band(const Pair& p, const cv::Mat& left, const cv
       at_column[static_cast<std::size_t>(s.column)] = static_cast<int>(i);
     }
   }
-  std::vector<int> nearest(static_cast<std::size_t>(width), -1);
+  std::vector<bool> added(static_cast<std::size_t>(width), false);
   for (int c = 0; c < width; ++c) {
-    int& at = nearest[static_cast<std::size_t>(c)];
+    int at = -1;
     for (int x = c * k; x < (c + 1) * k; ++x) {
       const int i = at_column[static_cast<std::size_t>(x)];
       if (i >= 0 && (at < 0 || found[static_cast<std::size_t>(i)].disparity_px >
@@ -1003,14 +1008,9 @@ void ObstacleDetector::add_far_band(const Pair& p, const cv::Mat& left, const cv
     for (int x = std::max(0, c * k - 1); x < std::min(grid_.width, (c + 1) * k + 1); ++x) {
       const int i = at_column[static_cast<std::size_t>(x)];
       alike += i >= 0 && std::abs(found[static_cast<std::size_t>(i)].distance_m - d) <=
-                             options_.cluster_tolerance_m + options_.cluster_tolerance_share * d;
+                             same_obstacle_within_m(options_, d);
     }
-    if (alike < 2) at = -1;
-  }
-  std::vector<bool> added(static_cast<std::size_t>(width), false);
-  for (int c = 0; c < width; ++c) {
-    const int at = nearest[static_cast<std::size_t>(c)];
-    if (at < 0) continue;
+    if (alike < 2) continue;
     Stixel s = found[static_cast<std::size_t>(at)];
     s.column = c;
     s.disparity_px /= k;  // reduced px, as the others'
