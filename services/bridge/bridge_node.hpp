@@ -10,7 +10,7 @@
 #include "frame_source.hpp"
 #include "thermovis/frames.h"
 #include "thermovis/node/health.hpp"
-#include "thermovis/transport/writer.hpp"
+#include "thermovis/transport/frames.hpp"
 
 namespace thermovis::bridge {
 
@@ -45,8 +45,9 @@ class BridgeNode {
 
   std::unique_ptr<FrameSource> source_;
   BridgeConfig config_;
-  transport::Writer<VisibleStereoFrame> visible_;
-  transport::Writer<InfraredStereoFrame> infrared_;
+  // Each with its packed twin for readers on other hosts (transport/frames.hpp).
+  transport::FrameWriter<VisibleStereoFrame> visible_;
+  transport::FrameWriter<InfraredStereoFrame> infrared_;
   node::HealthReporter health_;
   BridgeStats stats_;
   bool preparing_ = true;  // until the source said it no longer prepares

@@ -31,7 +31,8 @@ DetectNode::DetectNode(transport::Participant& participant, const DetectConfig& 
     : config_(config),
       stage_(participant, config.detect),
       infrared_in_(participant, transport::topics::kRectifiedInfrared,
-                   frame_reader_qos(config.deadline)),
+                   frame_reader_qos(config.deadline),
+                   [this](const std::string& why) { bad_frame(why); }),
       out_(participant, transport::topics::kDetections, transport::event_topic_qos()),
       health_(participant, service_name,
               [this] {
@@ -43,10 +44,16 @@ DetectNode::DetectNode(transport::Participant& participant, const DetectConfig& 
       sequence_(service_name, "rectified infrared frame"),
       fused_(2) {
   if (config_.detect.hog) {
-    fused_in_ = std::make_unique<transport::Reader<GridStereoFrame>>(
-        participant, transport::topics::kFused, frame_reader_qos(config.deadline));
+    fused_in_ = std::make_unique<transport::FrameReader<GridStereoFrame>>(
+        participant, transport::topics::kFused, frame_reader_qos(config.deadline),
+        [this](const std::string& why) { bad_frame(why); });
   }
   health_.set_state(HEALTH_STARTING, "no grid geometry yet (thermovis/geometry)");
+}
+
+void DetectNode::bad_frame(const std::string& why) {
+  ++stats_.bad;
+  health_.bad_input(why);
 }
 
 DetectStats DetectNode::stats() const {

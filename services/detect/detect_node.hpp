@@ -16,7 +16,7 @@
 #include "thermovis/node/health.hpp"
 #include "thermovis/perception.h"
 #include "thermovis/pipeline/detect_stage.hpp"
-#include "thermovis/transport/reader.hpp"
+#include "thermovis/transport/frames.hpp"
 #include "thermovis/transport/writer.hpp"
 
 namespace thermovis::detect_service {
@@ -48,11 +48,12 @@ class DetectNode {
   // The detections of one frame (published by run() once the frame proved intact).
   DetectionArray detect(const GridStereoFrame& infrared);
   void take_fused(std::chrono::milliseconds wait, std::uint64_t from_seq);
+  void bad_frame(const std::string& why);  // a packed frame that does not unpack
 
   DetectConfig config_;
   node::StageOnGeometry<pipeline::DetectStage, pipeline::DetectOptions> stage_;
-  transport::Reader<GridStereoFrame> infrared_in_;
-  std::unique_ptr<transport::Reader<GridStereoFrame>> fused_in_;  // with --hog only
+  transport::FrameReader<GridStereoFrame> infrared_in_;
+  std::unique_ptr<transport::FrameReader<GridStereoFrame>> fused_in_;  // with --hog only
   transport::Writer<DetectionArray> out_;
   node::HealthReporter health_;
   DetectStats stats_;

@@ -20,13 +20,15 @@ constexpr std::chrono::milliseconds kFrameWait{40};
 
 struct MatchNode::BandInput {
   BandInput(transport::Participant& participant, const char* topic, pipeline::Band band_,
-            const std::string& service, std::size_t kept, std::chrono::nanoseconds deadline)
+            const std::string& service, std::size_t kept, std::chrono::nanoseconds deadline,
+            transport::FrameReader<GridStereoFrame>::BadFrame bad_frame)
       : band(band_),
-        reader(participant, topic, transport::frame_topic_qos(deadline, 2, 2)),
+        reader(participant, topic, transport::frame_topic_qos(deadline, 2, 2),
+               std::move(bad_frame)),
         pairs(kept),
         sequence(service, std::string(topic) + " frame") {}
   pipeline::Band band;
-  transport::Reader<GridStereoFrame> reader;
+  transport::FrameReader<GridStereoFrame> reader;
   node::SeqBuffer<Pair> pairs;
   node::FrameSequence sequence;  // of the frames taken
 };
@@ -45,19 +47,24 @@ MatchNode::MatchNode(transport::Participant& participant, const MatchConfig& con
         return counters;
       }) {
   if (config_.frames_kept == 0) throw std::invalid_argument("frames_kept must be at least 1");
+  // A packed frame that does not unpack: bad input, counted like a bad plain frame.
+  const auto bad_frame = [this](const std::string& why) {
+    ++stats_.bad;
+    health_.bad_input(why);
+  };
   const pipeline::BandChoice band = config.match.band;
   if (band != pipeline::BandChoice::infrared) {
     const bool fused = band == pipeline::BandChoice::fused;
     primary_ = std::make_unique<BandInput>(
         participant, fused ? transport::topics::kFused : transport::topics::kRectifiedVisible,
         fused ? pipeline::Band::fused : pipeline::Band::visible, service_name, config.frames_kept,
-        config.deadline);
+        config.deadline, bad_frame);
   }
   if (band == pipeline::BandChoice::infrared || band == pipeline::BandChoice::automatic ||
       band == pipeline::BandChoice::both) {
     infrared_ = std::make_unique<BandInput>(participant, transport::topics::kRectifiedInfrared,
                                             pipeline::Band::infrared, service_name,
-                                            config.frames_kept, config.deadline);
+                                            config.frames_kept, config.deadline, bad_frame);
   }
   health_.set_state(HEALTH_STARTING, "no grid geometry yet (thermovis/geometry)");
 }

@@ -22,8 +22,7 @@
 #include "thermovis/node/health.hpp"
 #include "thermovis/perception.h"
 #include "thermovis/pipeline/match_stage.hpp"
-#include "thermovis/transport/reader.hpp"
-#include "thermovis/transport/writer.hpp"
+#include "thermovis/transport/frames.hpp"
 
 namespace thermovis::match_service {
 

@@ -114,12 +114,13 @@ ObstacleArray to_message(const pipeline::ObstacleReport& report, const ob::Obsta
 // frames that came on time (the writers' offered deadlines count the late ones).
 struct ObstaclesNode::BandInput {
   BandInput(transport::Participant& participant, const char* topic, ob::PairBand band_,
-            const std::string& service)
+            const std::string& service, transport::FrameReader<GridStereoFrame>::BadFrame bad)
       : band(band_),
-        reader(participant, topic, transport::observer_qos(transport::frame_topic_qos({}, 2, 2))),
+        reader(participant, topic, transport::observer_qos(transport::frame_topic_qos({}, 2, 2)),
+               std::move(bad)),
         sequence(service, std::string(topic) + " frame") {}
   ob::PairBand band;
-  transport::Reader<GridStereoFrame> reader;
+  transport::FrameReader<GridStereoFrame> reader;
   node::FrameSequence sequence;
 };
 
@@ -138,13 +139,18 @@ ObstaclesNode::ObstaclesNode(transport::Participant& participant, const Obstacle
                 return counters;
               }),
       ranges_(kRangesKept) {
+  // A packed frame that does not unpack: bad input, counted like a bad plain frame.
+  const auto bad_frame = [this](const std::string& why) {
+    ++stats_.bad;
+    health_.bad_input(why);
+  };
   if (config.obstacles.visible) {
     visible_ = std::make_unique<BandInput>(participant, transport::topics::kRectifiedVisible,
-                                           ob::PairBand::visible, service_name);
+                                           ob::PairBand::visible, service_name, bad_frame);
   }
   if (config.obstacles.infrared) {
     infrared_ = std::make_unique<BandInput>(participant, transport::topics::kRectifiedInfrared,
-                                            ob::PairBand::infrared, service_name);
+                                            ob::PairBand::infrared, service_name, bad_frame);
   }
   if (!visible_ && !infrared_) throw std::invalid_argument("no pair to search for obstacles");
   if (config.with_targets) {

@@ -24,8 +24,7 @@
 #include "thermovis/obstacles.h"
 #include "thermovis/perception.h"
 #include "thermovis/pipeline/obstacle_stage.hpp"
-#include "thermovis/transport/reader.hpp"
-#include "thermovis/transport/writer.hpp"
+#include "thermovis/transport/frames.hpp"
 
 namespace thermovis::obstacles_service {
 

@@ -6,7 +6,8 @@
 // every grid frame with its id. Only the newest capture is processed: older ones waiting are
 // dropped and counted. The fusion runs only while thermovis/fused has a reader (the display, a
 // recording, fused-band matching, another application): in the default pipeline nothing reads
-// it, and it was a third of this service's CPU.
+// it, and it was a third of this service's CPU. Each grid topic has its packed twin for readers
+// on other hosts (transport/frames.hpp), filled only while such a reader is matched.
 #include <array>
 #include <chrono>
 #include <memory>
@@ -16,8 +17,7 @@
 #include "thermovis/node/geometry_topic.hpp"
 #include "thermovis/node/health.hpp"
 #include "thermovis/pipeline/rectify_fuse_stage.hpp"
-#include "thermovis/transport/reader.hpp"
-#include "thermovis/transport/writer.hpp"
+#include "thermovis/transport/frames.hpp"
 
 namespace thermovis::rectify_fuse {
 
@@ -61,11 +61,12 @@ class RectifyFuseNode {
  private:
   // An infrared frame taken and held (a loan) until its visible partner comes.
   struct HeldInfrared {
-    std::shared_ptr<transport::Samples<InfraredStereoFrame>> samples;
+    std::shared_ptr<transport::FrameSamples<InfraredStereoFrame>> samples;
     std::size_t index = 0;
     const InfraredStereoFrame& frame() const { return (*samples)[index]; }
   };
   void take_infrared(std::chrono::milliseconds wait);
+  void bad_frame(const std::string& why);  // a packed frame that does not unpack
   void process(const VisibleStereoFrame& visible, const InfraredStereoFrame& infrared);
   // The fused frame of a processed capture, when thermovis/fused has a reader.
   void fuse(const std::array<cv::Mat, 2>& rect_infrared, const std::array<cv::Mat, 2>& rect_visible,
@@ -74,11 +75,11 @@ class RectifyFuseNode {
   RectifyFuseConfig config_;
   pipeline::RectifyFuseStage stage_;
   std::uint32_t geometry_id_;
-  transport::Reader<VisibleStereoFrame> visible_in_;
-  transport::Reader<InfraredStereoFrame> infrared_in_;
-  transport::Writer<GridStereoFrame> rectified_visible_out_;
-  transport::Writer<GridStereoFrame> rectified_infrared_out_;
-  transport::Writer<GridStereoFrame> fused_out_;
+  transport::FrameReader<VisibleStereoFrame> visible_in_;
+  transport::FrameReader<InfraredStereoFrame> infrared_in_;
+  transport::FrameWriter<GridStereoFrame> rectified_visible_out_;
+  transport::FrameWriter<GridStereoFrame> rectified_infrared_out_;
+  transport::FrameWriter<GridStereoFrame> fused_out_;
   node::GeometryPublisher geometry_out_;
   node::HealthReporter health_;
   RectifyFuseStats stats_;

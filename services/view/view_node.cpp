@@ -36,7 +36,7 @@ transport::TopicQos display_writer_qos() {
 // Copies the newest left image of `reader`'s samples into `ring` (reusing the oldest buffer),
 // when `wanted`; the loans go back when `samples` goes out of scope. False when the writer reused
 // the sample's slot during the copy (the copy is then dropped).
-bool copy_newest(transport::Samples<GridStereoFrame>& samples, std::deque<ViewNode::Image>& ring) {
+bool copy_newest(transport::FrameSamples<GridStereoFrame>& samples, std::deque<ViewNode::Image>& ring) {
   const std::size_t i = samples.size() - 1;
   const GridStereoFrame& frame = samples[i];
   const cv::Mat left = node::view(frame, node::Eye::left);
@@ -95,7 +95,7 @@ void ViewNode::run() {
 void ViewNode::take_frames() {
   const bool side = hub_.wanted(View::side_by_side);
   struct Band {
-    transport::Reader<GridStereoFrame>* reader;
+    transport::FrameReader<GridStereoFrame>* reader;
     std::deque<Image>& ring;
     bool fused;
   };
@@ -104,7 +104,7 @@ void ViewNode::take_frames() {
   // (the viewer killed) can leave the writer's pool refusing every loan until the writer is
   // recreated (Fast DDS 2.9 with several data-sharing readers): the rectified frames the
   // pipeline ranges on would be lost for that time. The fused topic is the display's own.
-  const auto reader_for = [&](std::optional<transport::Reader<GridStereoFrame>>& reader,
+  const auto reader_for = [&](std::optional<transport::FrameReader<GridStereoFrame>>& reader,
                               std::deque<Image>& ring, const char* topic, bool wanted) {
     if (wanted && !reader) reader.emplace(participant_, topic, frame_reader_qos());
     if (!wanted && reader) {

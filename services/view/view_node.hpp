@@ -23,8 +23,7 @@
 #include "thermovis/enhance/infrared_agc.hpp"
 #include "thermovis/frames.h"
 #include "thermovis/node/health.hpp"
-#include "thermovis/transport/reader.hpp"
-#include "thermovis/transport/writer.hpp"
+#include "thermovis/transport/frames.hpp"
 #include "view_hub.hpp"
 #include "view_status.hpp"
 
@@ -64,15 +63,15 @@ class ViewNode {
   ViewHub& hub_;
   ViewConfig config_;
   transport::Participant& participant_;
-  transport::Reader<GridStereoFrame> fused_in_;
+  transport::FrameReader<GridStereoFrame> fused_in_;
   // Created while a view needs the band, deleted when none has for ViewHub::wanted's window.
-  std::optional<transport::Reader<GridStereoFrame>> visible_in_, infrared_in_;
+  std::optional<transport::FrameReader<GridStereoFrame>> visible_in_, infrared_in_;
   transport::Reader<DetectionArray> detections_in_;
   transport::Reader<RangeArray> ranges_in_;
   transport::Reader<ObstacleArray> obstacles_in_;
   transport::Reader<FrameTiming> timing_in_;
   transport::Reader<Health> health_in_;
-  transport::Writer<GridStereoFrame> display_out_;
+  transport::FrameWriter<GridStereoFrame> display_out_;
   node::HealthReporter health_;
   enhance::InfraredAgc agc_;
 

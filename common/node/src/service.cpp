@@ -6,6 +6,7 @@
 #include <csignal>
 #include <cstdlib>
 #include <iostream>
+#include <map>
 #include <opencv2/core/utility.hpp>
 
 #include "thermovis/util/heap.hpp"
@@ -43,6 +44,15 @@ void add_common_options(CLI::App& app, CommonOptions& options, bool with_rig) {
                  "thermovis_secure (DDS Security)");
   app.add_option("--profiles-file", options.profiles_file, "DDS XML profiles file");
   if (with_rig) app.add_option("--rig", options.rig, "rig YAML (default deploy/rigs/paper.yaml)");
+  app.add_option("--frame-transport", options.frame_transport,
+                 "where this service reads frames from: plain (the frame topics, by data-sharing "
+                 "on the writer's host; the default) or packed (their <topic>/packed twins, "
+                 "the pixels only: for a service on another host than the frames' writer)")
+      ->transform(CLI::CheckedTransformer(
+          std::map<std::string, transport::FrameTransport>{
+              {"plain", transport::FrameTransport::plain},
+              {"packed", transport::FrameTransport::packed}},
+          CLI::ignore_case));
   app.add_option("--threads", options.threads,
                  "OpenCV worker threads (1: sequential, the default; -1: one per core)")
       ->capture_default_str()
@@ -57,6 +67,7 @@ std::unique_ptr<transport::Participant> make_participant(const CommonOptions& op
                              ? transport::shipped_profile_file(options.profile)
                              : options.profiles_file;
   config.name = options.service;
+  config.frame_transport = options.frame_transport;
   return std::make_unique<transport::Participant>(config);
 }
 

@@ -137,7 +137,8 @@ void WriterBase::create() {
   const dds::StatusMask mask = dds::StatusMask::publication_matched()
                                << dds::StatusMask::offered_deadline_missed();
   dds::DataWriterQos dds_qos = writer_qos(qos_);
-  if (qos_.kind == TopicKind::frame && !participant_->frame_flow_controller.empty()) {
+  if ((qos_.kind == TopicKind::frame || qos_.kind == TopicKind::packed_frame) &&
+      !participant_->frame_flow_controller.empty()) {
     // Profiles for other hosts (udp.xml): frames leave through the participant's bandwidth
     // limit, from the flow controller's thread, so a 13.1 MB sample is spread over time
     // instead of overflowing the receiver's socket buffer.

@@ -201,6 +201,7 @@ Participant::Participant(const ParticipantConfig& config) : state_(std::make_sha
   }
   state_->domain_id = config.domain_id;
   state_->profile = config.profile;
+  state_->frame_transport = config.frame_transport;
   state_->frame_flow_controller = register_frame_flow_controller(qos, config.profile);
   add_security_files(qos, config);
   state_->participant = factory->create_participant(config.domain_id, qos);

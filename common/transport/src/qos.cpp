@@ -12,6 +12,11 @@ TopicQos frame_topic_qos(std::chrono::nanoseconds deadline, std::int32_t depth,
   return {TopicKind::frame, depth, max_readers, deadline};
 }
 
+TopicQos packed_twin_qos(TopicQos frame_qos) {
+  frame_qos.kind = TopicKind::packed_frame;
+  return frame_qos;
+}
+
 TopicQos event_topic_qos(std::int32_t depth) { return {TopicKind::event, depth, 0, {}}; }
 
 TopicQos state_topic_qos() { return {TopicKind::state, 1, 0, {}}; }
@@ -22,7 +27,8 @@ TopicQos observer_qos(TopicQos qos) {
 }
 
 void validate(const TopicQos& qos) {
-  if (qos.kind == TopicKind::frame && (qos.depth < 2 || qos.depth > 4)) {
+  const bool frames = qos.kind == TopicKind::frame || qos.kind == TopicKind::packed_frame;
+  if (frames && (qos.depth < 2 || qos.depth > 4)) {
     throw std::invalid_argument("frame topic history depth " + std::to_string(qos.depth) +
                                 " out of range 2..4 (each slot is a full frame)");
   }
@@ -30,7 +36,7 @@ void validate(const TopicQos& qos) {
     throw std::invalid_argument("topic history depth " + std::to_string(qos.depth) +
                                 " out of range 1..1000");
   }
-  if (qos.kind == TopicKind::frame && (qos.max_readers < 1 || qos.max_readers > 16)) {
+  if (frames && (qos.max_readers < 1 || qos.max_readers > 16)) {
     throw std::invalid_argument("frame topic max_readers " + std::to_string(qos.max_readers) +
                                 " out of range 1..16");
   }
@@ -66,6 +72,17 @@ void apply_common(const TopicQos& qos, Qos& out) {
     // AUTOMATIC: data-sharing with every reader on this host (the frames' path); a remote
     // reader would still get serialised samples over the network.
     out.data_sharing().automatic();
+  } else if (qos.kind == TopicKind::packed_frame) {
+    // Serialised samples of up to 13 MB whose size follows the image: no data-sharing (the
+    // type is not plain), at most `depth` samples, and payload buffers allocated to the
+    // samples' size and reused (the preallocated default would reserve the bound per slot).
+    out.resource_limits().max_instances = 1;
+    out.resource_limits().max_samples_per_instance = qos.depth;
+    out.resource_limits().max_samples = qos.depth;
+    out.resource_limits().allocated_samples = qos.depth;
+    out.data_sharing().off();
+    out.endpoint().history_memory_policy =
+        eprosima::fastrtps::rtps::DYNAMIC_REUSABLE_MEMORY_MODE;
   } else {
     // Small types have strings and sequences: not plain, so they go by the transports.
     out.data_sharing().off();

@@ -44,6 +44,10 @@ TEST(IdlTypes, ArrayBoundsEqualTheirConstants) {
             thermovis::GRID_IMAGE_BYTES);
   EXPECT_EQ(extent<decltype(std::declval<thermovis::PipelineStamps>().stamps())>(),
             thermovis::MAX_STAGE_STAMPS);
+  // The packed twin's sequences hold any plain frame's eye.
+  thermovis::PackedStereoFramePubSubType packed;
+  EXPECT_GE(packed.m_typeSize, 2u * thermovis::GRID_IMAGE_BYTES);
+  EXPECT_LT(packed.m_typeSize, 2u * thermovis::GRID_IMAGE_BYTES + 1024u);
   EXPECT_EQ(std::remove_cvref_t<decltype(std::declval<thermovis::TargetRange>().label())>::max_size,
             thermovis::MAX_LABEL_LENGTH);
   EXPECT_EQ(std::remove_cvref_t<decltype(std::declval<thermovis::Obstacle>().label())>::max_size,
@@ -62,6 +66,7 @@ TEST(IdlTypes, FrameTypesArePlainAndSmallTypesAreNot) {
   EXPECT_TRUE(tt::is_plain_type<thermovis::VisibleStereoFrame>());
   EXPECT_TRUE(tt::is_plain_type<thermovis::InfraredStereoFrame>());
   EXPECT_TRUE(tt::is_plain_type<thermovis::GridStereoFrame>());
+  EXPECT_FALSE(tt::is_plain_type<thermovis::PackedStereoFrame>());
   EXPECT_FALSE(tt::is_plain_type<thermovis::RangeArray>());
   EXPECT_FALSE(tt::is_plain_type<thermovis::Health>());
 }

@@ -30,9 +30,11 @@ struct CommonOptions {
   // the cores, and idle OpenCV/TBB workers spin between parallel regions, burning the CPU the
   // other services need.
   int threads = 1;
+  // Frames from the plain topics or their packed twins (another host than their writer's).
+  transport::FrameTransport frame_transport = transport::FrameTransport::plain;
 };
 
-// Adds --domain, --profile, --profiles-file, --threads and, for a service that reads the rig
+// Adds --domain, --profile, --profiles-file, --frame-transport, --threads and, for a service that reads the rig
 // (bridge, rectify-fuse; the others take the geometry from thermovis/geometry), --rig.
 void add_common_options(CLI::App& app, CommonOptions& options, bool with_rig = true);
 

@@ -29,11 +29,17 @@ inline constexpr const char* kDiscoveryProfile = "thermovis_discovery";
 // DDS Security (secure.xml): identity files from $THERMOVIS_SECURITY_DIR by participant name.
 inline constexpr const char* kSecureProfile = "thermovis_secure";
 
+// Which wire a participant's frame readers (FrameReader, frames.hpp) take frames from: the plain
+// frame topics, delivered by data-sharing without a copy on the writer's host, or their packed
+// twins (<topic>/packed: the pixels only, serialised), for a process on another host.
+enum class FrameTransport { plain, packed };
+
 struct ParticipantConfig {
   int domain_id = 0;                    // 0..232 (UDP port arithmetic of the RTPS spec)
   std::filesystem::path profiles_file;  // empty: profile_dir() / "host.xml"
   std::string profile = kHostProfile;   // participant profile name in that file
   std::string name;                     // participant name seen by discovery tools
+  FrameTransport frame_transport = FrameTransport::plain;
 };
 
 // Folder of the shipped profiles: $THERMOVIS_DDS_PROFILE_DIR if set, else deploy/dds of the
@@ -74,6 +80,7 @@ struct Participant::State {
   // by the writing thread. Set by a profile's properties thermovis.frames.max_bytes_per_period
   // and thermovis.frames.period_ms (udp.xml: large frames to other hosts).
   std::string frame_flow_controller;
+  FrameTransport frame_transport = FrameTransport::plain;  // ParticipantConfig's
 
   // The topic of that name, created (and its type registered) on first use. Throws when the
   // name is already used with another type.

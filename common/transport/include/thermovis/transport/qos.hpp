@@ -11,6 +11,9 @@ namespace thermovis::transport {
 
 enum class TopicKind {
   frame,  // plain image frames: data-sharing with loans, KEEP_LAST 2-4, pools sized exactly
+  // a frame topic's packed twin (PackedStereoFrame, frames.hpp): serialised, KEEP_LAST 2-4,
+  // payloads allocated to each sample's size and reused
+  packed_frame,
   event,  // small per-frame messages (detections, ranges, timing): RELIABLE, VOLATILE
   state,  // latest state per key (health): RELIABLE, TRANSIENT_LOCAL, KEEP_LAST 1
 };
@@ -38,6 +41,8 @@ inline constexpr std::chrono::milliseconds kDefaultFrameDeadline{30};
 
 TopicQos frame_topic_qos(std::chrono::nanoseconds deadline = kDefaultFrameDeadline,
                          std::int32_t depth = 2, std::int32_t max_readers = 2);
+// The QoS of `frame_qos`'s packed twin: the same depth, readers and DEADLINE.
+TopicQos packed_twin_qos(TopicQos frame_qos);
 TopicQos event_topic_qos(std::int32_t depth = 8);
 TopicQos state_topic_qos();
 // The reader QoS of an observer of `qos`'s topic (recorder, viewer, ROS 2 bridge: not part of the

@@ -24,6 +24,7 @@ struct TypeSupportOf;
 THERMOVIS_TYPE_SUPPORT(VisibleStereoFrame);
 THERMOVIS_TYPE_SUPPORT(InfraredStereoFrame);
 THERMOVIS_TYPE_SUPPORT(GridStereoFrame);
+THERMOVIS_TYPE_SUPPORT(PackedStereoFrame);
 THERMOVIS_TYPE_SUPPORT(GridGeometry);
 THERMOVIS_TYPE_SUPPORT(DetectionArray);
 THERMOVIS_TYPE_SUPPORT(MatchArray);
