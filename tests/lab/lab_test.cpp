@@ -19,7 +19,6 @@
 #include <limits>
 #include <map>
 #include <memory>
-#include <nlohmann/json.hpp>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -58,21 +57,29 @@ class SplitPipeline {
     const auto bin = thermovis::test::bin_dir();
     const auto scene = thermovis::test::source_root() / "deploy/scenes/paper.yaml";
     const std::vector<std::string> dds{"--domain", std::to_string(domain), "--profile", profile};
+    // Host b reads the frames' packed twins (the pixels only); THERMOVIS_LAB_FRAMES=plain
+    // measures the plain types across the link instead.
+    const char* frames = std::getenv("THERMOVIS_LAB_FRAMES");
+    const std::string b_frames = frames != nullptr ? frames : "packed";
     auto start = [&](const std::string& host, const std::string& service,
                      std::vector<std::string> extra) {
       std::vector<std::string> argv{(bin / service).string()};
       argv.insert(argv.end(), dds.begin(), dds.end());
+      if (host == "b") {
+        argv.push_back("--frame-transport");
+        argv.push_back(b_frames);
+      }
       argv.insert(argv.end(), extra.begin(), extra.end());
       services_.push_back({service, lab.start(host, argv, dir / (service + ".log"), env)});
     };
-    // 5 captures a second (THERMOVIS_LAB_RATE to measure others): each crosses a->b as two
-    // 13.1 MB samples (rectified visible and infrared, the plain type's full size), 131 MB/s,
-    // within the 200 MB/s of udp.xml's flow controller. An offered load above it makes frames
-    // superseded while still in flight and the results collapse (docs/deployment.md, lab).
+    // 25 captures a second (THERMOVIS_LAB_RATE to measure others): each crosses a->b as the
+    // rectified pairs' packed twins, the visible one to match and the infrared one to detect
+    // and to match (5.3 MB a capture on the pipeline grid, 133 MB/s). As plain types the two
+    // pairs were 13.1 MB each per reader, and 5 Hz was what the link carried.
     const char* rate = std::getenv("THERMOVIS_LAB_RATE");
     start("a", "thermovis-bridge",
           {"--source", "sim", "--scene", scene.string(), "--prerender", "10", "--rate",
-           rate != nullptr ? rate : "5"});
+           rate != nullptr ? rate : "25"});
     start("a", "thermovis-rectify-fuse", {});
     start("b", "thermovis-detect", {});
     start("b", "thermovis-match", {});
@@ -151,16 +158,6 @@ struct PathLatency {
   }
 };
 
-// Bytes host `host` sent on its lab link so far.
-std::uint64_t tx_bytes(const Lab& lab, const std::filesystem::path& dir, const std::string& host) {
-  ChildProcess ip({"/usr/bin/env", "ip", "-n", lab.ns(host), "-s", "-j", "link", "show", "eth0"},
-                  dir / "ip-stats.log");
-  if (ip.wait(20s) != 0) return 0;
-  const auto j = nlohmann::json::parse(ip.log(), nullptr, false);
-  if (j.is_discarded() || !j.is_array() || j.empty()) return 0;
-  return j[0]["stats64"]["tx"]["bytes"].get<std::uint64_t>();
-}
-
 // Range results received at the consumer, checked against the simulated truth.
 class RangeCheck {
  public:
@@ -182,6 +179,8 @@ class RangeCheck {
         if (!check) continue;
         latency_.add(a.stamps(), a.capture_time_ns(), received_ns);
         truth_.add(a);
+        first_seq_ = std::min(first_seq_, a.frame_seq());
+        last_seq_ = std::max(last_seq_, a.frame_seq());
       }
     }
     return got;
@@ -191,6 +190,8 @@ class RangeCheck {
   void expect_like_one_host(int people) const { truth_.expect_like_truth(people); }
 
   std::size_t arrays() const { return truth_.arrays(); }
+  // Captures made from the first checked result's to the last one's.
+  std::uint64_t captures() const { return arrays() > 0 ? last_seq_ - first_seq_ + 1 : 0; }
   Clock::time_point last() const { return last_; }
   const PathLatency& latency() const { return latency_; }
 
@@ -199,6 +200,8 @@ class RangeCheck {
   thermovis::test::RangeTruth truth_;
   Clock::time_point last_{};
   PathLatency latency_;
+  std::uint64_t first_seq_ = std::numeric_limits<std::uint64_t>::max();
+  std::uint64_t last_seq_ = 0;
 };
 
 std::unique_ptr<tv::transport::Participant> participant_on_lab(int domain,
@@ -231,16 +234,19 @@ TEST(Lab, PipelineOverThreeHostsRangesAsOnOneHostAndComesBackAfterALinkCut) {
   ASSERT_GE(check.collect(Clock::now() + 120s, 1, false), 1) << "no ranges reached host c\n"
                                                              << pipeline.logs();
   // Then 10 s of results, and what crossed host a's link meanwhile.
-  const std::uint64_t tx0 = tx_bytes(*lab, dir, "a");
+  const std::uint64_t tx0 = lab->tx_bytes("a");
   const auto t0 = Clock::now();
   check.collect(t0 + 10s, 0);
   const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
-  const double a_mbit_s = static_cast<double>(tx_bytes(*lab, dir, "a") - tx0) * 8 / 1e6 / seconds;
+  const double a_mbit_s = static_cast<double>(lab->tx_bytes("a") - tx0) * 8 / 1e6 / seconds;
   std::cout << check.arrays() << " range arrays at host c in " << seconds << " s ("
-            << check.arrays() / seconds << " /s); host a sent " << a_mbit_s << " Mbit/s\n"
+            << check.arrays() / seconds << " /s) of " << check.captures()
+            << " captures; host a sent " << a_mbit_s << " Mbit/s\n"
             << "latency per stage and hop:\n"
             << check.latency().table();
   RecordProperty("ranges_per_s", std::to_string(check.arrays() / seconds));
+  RecordProperty("results_of_captures", std::to_string(static_cast<double>(check.arrays()) /
+                                                       static_cast<double>(check.captures())));
   RecordProperty("host_a_link_mbit_s", std::to_string(a_mbit_s));
   for (const auto& [name, values] : check.latency().ms)
     RecordProperty(name + " p50_ms", std::to_string(percentile(values, 50)));
@@ -366,11 +372,11 @@ TEST(Lab, RawFramesCrossALinkWholeAndInOrder) {
   take(Clock::now() + 2s);  // the first frames, while the writer ramps up
   received = 0;
   hop_ms.clear();
-  const std::uint64_t tx0 = tx_bytes(*lab, dir, "a");
+  const std::uint64_t tx0 = lab->tx_bytes("a");
   const auto t0 = Clock::now();
   take(t0 + 6s);
   const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
-  const double mbit_s = static_cast<double>(tx_bytes(*lab, dir, "a") - tx0) * 8 / 1e6 / seconds;
+  const double mbit_s = static_cast<double>(lab->tx_bytes("a") - tx0) * 8 / 1e6 / seconds;
   const double captured = received > 0 ? static_cast<double>(last_seq - first_seq + 1) : 0.0;
   std::cout << profile << ": " << received << " of " << captured << " raw visible frames ("
             << received / seconds << " /s, " << received * 12.44 / seconds
