@@ -1,5 +1,7 @@
 #include "thermovis/transport/endpoint.hpp"
 
+#include <fastrtps/utils/IPLocator.h>
+
 #include <atomic>
 #include <chrono>
 #include <iostream>
@@ -261,8 +263,26 @@ ReaderBase::ReaderBase(Participant& participant, const std::string& topic,
   dds::Topic* dds_topic = participant_->topic(topic, type);
   const dds::StatusMask mask = dds::StatusMask::subscription_matched()
                                << dds::StatusMask::requested_deadline_missed();
-  reader_ = participant_->subscriber->create_datareader(dds_topic, reader_qos(qos), listener_.get(),
-                                                        mask);
+  dds::DataReaderQos dds_qos = reader_qos(qos);
+  if (qos.kind == TopicKind::packed_frame && !participant_->packed_multicast_group.empty()) {
+    // The readers of one packed topic on a host share a multicast locator: its writer sends
+    // each sample once for all of them (Fast DDS picks a locator that several readers share)
+    // instead of once per reading process. The group's last byte and the port come from the
+    // topic and the domain (the RTPS user multicast port, 7401 + 250 x domain).
+    eprosima::fastrtps::rtps::Locator_t group;
+    group.kind = LOCATOR_KIND_UDPv4;
+    std::uint32_t h = 2166136261u;
+    for (const char c : topic) h = (h ^ static_cast<std::uint8_t>(c)) * 16777619u;
+    std::string address = participant_->packed_multicast_group;
+    address = address.substr(0, address.rfind('.') + 1) + std::to_string(1 + h % 250);
+    if (!eprosima::fastrtps::rtps::IPLocator::setIPv4(group, address)) {
+      throw std::runtime_error("packed frame topic '" + topic + "': bad multicast group " +
+                               address + " (thermovis.packed.multicast_group)");
+    }
+    group.port = 7401 + 250 * static_cast<std::uint32_t>(participant_->domain_id);
+    dds_qos.endpoint().multicast_locator_list.push_back(group);
+  }
+  reader_ = participant_->subscriber->create_datareader(dds_topic, dds_qos, listener_.get(), mask);
   if (reader_ == nullptr) {
     throw std::runtime_error("cannot create DDS reader on '" + topic + "' (see the Fast DDS log)");
   }

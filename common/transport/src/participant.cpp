@@ -202,6 +202,9 @@ Participant::Participant(const ParticipantConfig& config) : state_(std::make_sha
   state_->domain_id = config.domain_id;
   state_->profile = config.profile;
   state_->frame_transport = config.frame_transport;
+  for (const auto& property : qos.properties().properties())
+    if (property.name() == "thermovis.packed.multicast_group")
+      state_->packed_multicast_group = property.value();
   state_->frame_flow_controller = register_frame_flow_controller(qos, config.profile);
   add_security_files(qos, config);
   state_->participant = factory->create_participant(config.domain_id, qos);

@@ -81,6 +81,11 @@ struct Participant::State {
   // and thermovis.frames.period_ms (udp.xml: large frames to other hosts).
   std::string frame_flow_controller;
   FrameTransport frame_transport = FrameTransport::plain;  // ParticipantConfig's
+  // IPv4 multicast group (its last byte chosen per topic) that readers of packed frame twins
+  // receive on, so that one sample on the wire serves every reader of a host (detect and match
+  // both read the infrared pair); empty: unicast per reader. Set by a profile's property
+  // thermovis.packed.multicast_group (udp.xml).
+  std::string packed_multicast_group;
 
   // The topic of that name, created (and its type registered) on first use. Throws when the
   // name is already used with another type.
