@@ -130,7 +130,7 @@ sign() {  # an XML document -> its S/MIME signature by the CA (what Fast DDS rea
 publishes() {
   case "$1" in
     thermovis-bridge) echo "thermovis/frames/* thermovis/health" ;;
-    thermovis-rectify-fuse) echo "thermovis/rectified/* thermovis/fused thermovis/geometry thermovis/health" ;;
+    thermovis-rectify-fuse) echo "thermovis/rectified/* thermovis/fused thermovis/fused/packed thermovis/geometry thermovis/health" ;;
     thermovis-detect) echo "thermovis/detections thermovis/health" ;;
     thermovis-match) echo "thermovis/matches thermovis/health" ;;
     thermovis-range) echo "thermovis/ranges thermovis/timing thermovis/health" ;;
@@ -141,8 +141,8 @@ publishes() {
 subscribes() {
   case "$1" in
     thermovis-rectify-fuse) echo "thermovis/frames/*" ;;
-    thermovis-detect) echo "thermovis/geometry thermovis/rectified/* thermovis/fused" ;;
-    thermovis-match) echo "thermovis/geometry thermovis/detections thermovis/rectified/* thermovis/fused" ;;
+    thermovis-detect) echo "thermovis/geometry thermovis/rectified/* thermovis/fused thermovis/fused/packed" ;;
+    thermovis-match) echo "thermovis/geometry thermovis/detections thermovis/rectified/* thermovis/fused thermovis/fused/packed" ;;
     thermovis-range) echo "thermovis/geometry thermovis/matches" ;;
     thermovis-obstacles) echo "thermovis/geometry thermovis/rectified/* thermovis/ranges" ;;
     thermovis-supervisor) echo "thermovis/health thermovis/timing thermovis/ranges" ;;
@@ -180,6 +180,7 @@ cat >governance.xml <<EOF
 $(topic_rule 'thermovis/frames/*' NONE)
 $(topic_rule 'thermovis/rectified/*' NONE)
 $(topic_rule 'thermovis/fused' NONE)
+$(topic_rule 'thermovis/fused/packed' NONE)
 $(topic_rule '*' ENCRYPT)
       </topic_access_rules>
     </domain_rule>
