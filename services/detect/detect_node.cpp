@@ -31,8 +31,7 @@ DetectNode::DetectNode(transport::Participant& participant, const DetectConfig& 
     : config_(config),
       stage_(participant, config.detect),
       infrared_in_(participant, transport::topics::kRectifiedInfrared,
-                   frame_reader_qos(config.deadline),
-                   [this](const std::string& why) { bad_frame(why); }),
+                   frame_reader_qos(config.deadline), node::count_bad_input(stats_.bad, health_)),
       out_(participant, transport::topics::kDetections, transport::event_topic_qos()),
       health_(participant, service_name,
               [this] {
@@ -46,14 +45,9 @@ DetectNode::DetectNode(transport::Participant& participant, const DetectConfig& 
   if (config_.detect.hog) {
     fused_in_ = std::make_unique<transport::FrameReader<GridStereoFrame>>(
         participant, transport::topics::kFused, frame_reader_qos(config.deadline),
-        [this](const std::string& why) { bad_frame(why); });
+        node::count_bad_input(stats_.bad, health_));
   }
   health_.set_state(HEALTH_STARTING, "no grid geometry yet (thermovis/geometry)");
-}
-
-void DetectNode::bad_frame(const std::string& why) {
-  ++stats_.bad;
-  health_.bad_input(why);
 }
 
 DetectStats DetectNode::stats() const {

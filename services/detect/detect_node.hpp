@@ -48,7 +48,6 @@ class DetectNode {
   // The detections of one frame (published by run() once the frame proved intact).
   DetectionArray detect(const GridStereoFrame& infrared);
   void take_fused(std::chrono::milliseconds wait, std::uint64_t from_seq);
-  void bad_frame(const std::string& why);  // a packed frame that does not unpack
 
   DetectConfig config_;
   node::StageOnGeometry<pipeline::DetectStage, pipeline::DetectOptions> stage_;

@@ -47,11 +47,7 @@ MatchNode::MatchNode(transport::Participant& participant, const MatchConfig& con
         return counters;
       }) {
   if (config_.frames_kept == 0) throw std::invalid_argument("frames_kept must be at least 1");
-  // A packed frame that does not unpack: bad input, counted like a bad plain frame.
-  const auto bad_frame = [this](const std::string& why) {
-    ++stats_.bad;
-    health_.bad_input(why);
-  };
+  const auto bad_frame = node::count_bad_input(stats_.bad, health_);
   const pipeline::BandChoice band = config.match.band;
   if (band != pipeline::BandChoice::infrared) {
     const bool fused = band == pipeline::BandChoice::fused;

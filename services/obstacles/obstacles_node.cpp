@@ -139,11 +139,7 @@ ObstaclesNode::ObstaclesNode(transport::Participant& participant, const Obstacle
                 return counters;
               }),
       ranges_(kRangesKept) {
-  // A packed frame that does not unpack: bad input, counted like a bad plain frame.
-  const auto bad_frame = [this](const std::string& why) {
-    ++stats_.bad;
-    health_.bad_input(why);
-  };
+  const auto bad_frame = node::count_bad_input(stats_.bad, health_);
   if (config.obstacles.visible) {
     visible_ = std::make_unique<BandInput>(participant, transport::topics::kRectifiedVisible,
                                            ob::PairBand::visible, service_name, bad_frame);

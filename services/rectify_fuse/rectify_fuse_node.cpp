@@ -79,9 +79,9 @@ RectifyFuseNode::RectifyFuseNode(transport::Participant& participant, const came
       stage_(rig, grid_geometry(rig, config.grid), config.stage),
       geometry_id_(stage_.geometry().id()),
       visible_in_(participant, transport::topics::kVisibleFrames, raw_qos(config.deadline),
-                  [this](const std::string& why) { bad_frame(why); }),
+                  node::count_bad_input(stats_.bad, health_)),
       infrared_in_(participant, transport::topics::kInfraredFrames, raw_qos(config.deadline),
-                   [this](const std::string& why) { bad_frame(why); }),
+                   node::count_bad_input(stats_.bad, health_)),
       rectified_visible_out_(participant, transport::topics::kRectifiedVisible,
                              grid_qos(config.deadline)),
       rectified_infrared_out_(participant, transport::topics::kRectifiedInfrared,
@@ -112,17 +112,11 @@ RectifyFuseStats RectifyFuseNode::stats() const {
   return s;
 }
 
-void RectifyFuseNode::bad_frame(const std::string& why) {
-  ++stats_.bad;
-  health_.bad_input(why);
-}
-
 void RectifyFuseNode::take_infrared(std::chrono::milliseconds wait) {
   if (wait.count() > 0) infrared_in_.wait_for_data(wait);
   // One sample at a time, and one held (infrared_held_ keeps one): the reader's history holds
   // two loans at most, and a take while both are held fails (OUT_OF_RESOURCES).
-  auto taken =
-      std::make_shared<transport::FrameSamples<InfraredStereoFrame>>(infrared_in_.take(1));
+  auto taken = std::make_shared<transport::FrameSamples<InfraredStereoFrame>>(infrared_in_.take(1));
   if (!taken->empty()) infrared_held_.push((*taken)[0].seq(), HeldInfrared{taken, 0});
 }
 

@@ -66,7 +66,6 @@ class RectifyFuseNode {
     const InfraredStereoFrame& frame() const { return (*samples)[index]; }
   };
   void take_infrared(std::chrono::milliseconds wait);
-  void bad_frame(const std::string& why);  // a packed frame that does not unpack
   void process(const VisibleStereoFrame& visible, const InfraredStereoFrame& infrared);
   // The fused frame of a processed capture, when thermovis/fused has a reader.
   void fuse(const std::array<cv::Mat, 2>& rect_infrared, const std::array<cv::Mat, 2>& rect_visible,

@@ -15,6 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "thermovis/common.h"
+#include "thermovis/frames.h"
 #include "thermovis/health.h"
 #include "thermovis/json/fields.hpp"
 #include "thermovis/perception.h"
@@ -106,6 +107,31 @@ json frame_timing(const void* sample) {
           {"stamps", to_json(t.stamps)}};
 }
 
+// FNV-1a over `bytes`: the sample's pixels in one number, to compare with the writer's.
+std::uint64_t fnv1a(const std::uint8_t* bytes, std::uint32_t length) {
+  std::uint64_t h = 1469598103934665603ull;
+  for (std::uint32_t i = 0; i < length; ++i) h = (h ^ bytes[i]) * 1099511628211ull;
+  return h;
+}
+
+// A frame topic's packed twin: the header, and each eye's byte count and hash (not the pixels).
+json packed_frame(const void* sample) {
+  const auto& f = *static_cast<const thermovis_PackedStereoFrame*>(sample);
+  return {{"seq", f.seq},
+          {"capture_time_ns", f.capture_time_ns},
+          {"pixel_format", f.pixel_format},
+          {"width", f.width},
+          {"height", f.height},
+          {"step", f.step},
+          {"eyes", f.eyes},
+          {"geometry_id", f.geometry_id},
+          {"left_bytes", f.left._length},
+          {"right_bytes", f.right._length},
+          {"left_fnv1a", fnv1a(f.left._buffer, f.left._length)},
+          {"right_fnv1a", fnv1a(f.right._buffer, f.right._length)},
+          {"stamps", to_json(f.stamps)}};
+}
+
 json health(const void* sample) {
   const auto& h = *static_cast<const thermovis_Health*>(sample);
   static const char* states[] = {"starting", "ok", "degraded", "failed", "stopping"};
@@ -129,7 +155,8 @@ json health(const void* sample) {
 struct TypeInfo {
   const dds_topic_descriptor_t* descriptor;
   std::function<json(const void*)> to_json;
-  bool state = false;  // health-like: TRANSIENT_LOCAL, so a late tap sees the last states
+  bool state = false;   // health-like: TRANSIENT_LOCAL, so a late tap sees the last states
+  bool frames = false;  // images: the last two kept, not 64
 };
 
 const std::map<std::string, TypeInfo>& types() {
@@ -139,11 +166,14 @@ const std::map<std::string, TypeInfo>& types() {
       {"thermovis::MatchArray", {&thermovis_MatchArray_desc, match_array}},
       {"thermovis::FrameTiming", {&thermovis_FrameTiming_desc, frame_timing}},
       {"thermovis::Health", {&thermovis_Health_desc, health, true}},
+      {"thermovis::PackedStereoFrame",
+       {&thermovis_PackedStereoFrame_desc, packed_frame, false, true}},
   };
   return table;
 }
 
-// The pipeline's topics (common/transport topics.hpp) that carry small, tappable types.
+// The pipeline's topics (common/transport topics.hpp) that carry small, tappable types, and the
+// frame topics' packed twins (their plain types are for data-sharing among Fast DDS processes).
 const std::map<std::string, std::string>& topic_types() {
   static const std::map<std::string, std::string> table = {
       {"thermovis/ranges", "thermovis::RangeArray"},
@@ -151,6 +181,12 @@ const std::map<std::string, std::string>& topic_types() {
       {"thermovis/matches", "thermovis::MatchArray"},
       {"thermovis/timing", "thermovis::FrameTiming"},
       {"thermovis/health", "thermovis::Health"},
+      {"thermovis/frames/visible/packed", "thermovis::PackedStereoFrame"},
+      {"thermovis/frames/infrared/packed", "thermovis::PackedStereoFrame"},
+      {"thermovis/rectified/visible/packed", "thermovis::PackedStereoFrame"},
+      {"thermovis/rectified/infrared/packed", "thermovis::PackedStereoFrame"},
+      {"thermovis/fused/packed", "thermovis::PackedStereoFrame"},
+      {"thermovis/display/packed", "thermovis::PackedStereoFrame"},
   };
   return table;
 }
@@ -343,7 +379,7 @@ std::uint64_t run_tap(const TapOptions& options, const std::atomic<bool>& stop, 
   // The QoS the pipeline's writers offer: RELIABLE; state topics also TRANSIENT_LOCAL.
   dds_qos_t* qos = dds_create_qos();
   dds_qset_reliability(qos, DDS_RELIABILITY_RELIABLE, DDS_SECS(1));
-  dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, 64);
+  dds_qset_history(qos, DDS_HISTORY_KEEP_LAST, type.frames ? 2 : 64);
   if (type.state) dds_qset_durability(qos, DDS_DURABILITY_TRANSIENT_LOCAL);
   const dds_entity_t reader_handle =
       dds_create_reader(participant.handle, topic.handle, qos, nullptr);

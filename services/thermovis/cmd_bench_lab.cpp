@@ -163,16 +163,14 @@ int run_bench(const Options& opt) {
                              opt.log_dir + ")");
   }
   collect(*ranges, group,
-          Clock::now() + std::chrono::milliseconds(static_cast<int>(opt.warmup_s * 1000)),
-          nullptr);
+          Clock::now() + std::chrono::milliseconds(static_cast<int>(opt.warmup_s * 1000)), nullptr);
   const std::uint64_t tx0 = lab->tx_bytes("a");
   const auto m0 = Clock::now();
   Received got;
-  collect(*ranges, group,
-          m0 + std::chrono::milliseconds(static_cast<int>(opt.seconds * 1000)), &got);
+  collect(*ranges, group, m0 + std::chrono::milliseconds(static_cast<int>(opt.seconds * 1000)),
+          &got);
   const double window_s = std::chrono::duration<double>(Clock::now() - m0).count();
-  const double link_mbit_s =
-      static_cast<double>(lab->tx_bytes("a") - tx0) * 8.0 / 1e6 / window_s;
+  const double link_mbit_s = static_cast<double>(lab->tx_bytes("a") - tx0) * 8.0 / 1e6 / window_s;
   std::map<std::string, int> restarts;
   for (const auto& s : group.status()) restarts[s.name] = s.restarts;
   group.stop_all();

@@ -45,6 +45,7 @@ struct Options {
   std::string data;  // test data root (default: $THERMOVIS_TEST_DATA or ../shared/data)
   bool quick = false;
   bool no_pipeline = false;
+  bool no_lab = false;
 };
 
 // One measurement: `thermovis <args>` printing JSON lines. `kind` picks its table; runs of one
@@ -200,6 +201,21 @@ std::vector<Run> plan(const Options& opt, const fs::path& data, const fs::path& 
   if (!q && !opt.no_pipeline && THERMOVIS_REPORT_PIPELINE) {
     runs.push_back(
         {"pipeline", "", {"bench", "pipeline", "--seconds", "20", "--warmup", "5", "--json"}, ""});
+  }
+  // The lab makes network namespaces: root only.
+  if (!q && !opt.no_lab && THERMOVIS_REPORT_PIPELINE && ::geteuid() == 0) {
+    const std::vector<std::vector<std::string>> lab_runs{
+        {"--frames", "plain", "--rate", "5"},
+        {"--frames", "plain", "--rate", "25"},
+        {"--frames", "packed", "--rate", "25"},
+        {"--frames", "packed", "--rate", "25", "--link-rate", "1gbit"},
+        {"--frames", "packed", "--rate", "50"},
+        {"--frames", "packed", "--rate", "50", "--link-rate", "1gbit"}};
+    for (const auto& extra : lab_runs) {
+      std::vector<std::string> args{"bench", "lab", "--seconds", "20", "--warmup", "10", "--json"};
+      args.insert(args.end(), extra.begin(), extra.end());
+      runs.push_back({"lab", "", args, ""});
+    }
   }
   return runs;
 }
@@ -632,6 +648,21 @@ std::string pipeline_tables(const std::vector<json>& rows) {
   return s;
 }
 
+// One row per `bench lab` run.
+std::string lab_tables(const std::vector<std::vector<json>>& runs) {
+  std::string s = table_head({"host b reads", "bridge (Hz)", "host a's link", "answered at c",
+                              "capture -> c p50 (ms)", "p99 (ms)", "host a sent (Mbit/s)"});
+  for (const auto& rows : runs) {
+    const json& r = rows.at(0);
+    const std::string link = r.at("link_rate").get<std::string>();
+    s += table_row({r.at("frames").get<std::string>(), fixed(r.at("rate_hz"), 0),
+                    link.empty() ? "veth" : link, percent(r.at("results_of_captures"), 1),
+                    fixed(r.at("p50_ms"), 1), fixed(r.at("p99_ms"), 1),
+                    fixed(r.at("link_mbit_s"), 0)});
+  }
+  return s;
+}
+
 struct Section {
   std::string kind, title;
 };
@@ -644,7 +675,10 @@ const std::vector<Section> kSections{
      "People on real annotated frames (the evaluation frames of each set, never trained on)"},
     {"obstacles", "Obstacles from dense stereo on the simulated rig"},
     {"calibration", "Taylor (OCamCalib) calibration of the sample sets (every image of a set)"},
-    {"pipeline", "The whole pipeline (50 Hz, full-resolution simulated frames)"}};
+    {"pipeline", "The whole pipeline (50 Hz, full-resolution simulated frames)"},
+    {"lab",
+     "The pipeline over three lab hosts (bridge and rectify-fuse on a, detect, match and range on "
+     "b, the results' reader on c; paper scene)"}};
 
 std::vector<json> read_rows(const fs::path& file) {
   std::ifstream in(file);
@@ -724,6 +758,11 @@ std::string format_report(const fs::path& dir) {
       if (section.kind == "match") md << match_tables(runs.front().second);
       if (section.kind == "fusion") md << fusion_tables(runs.front().second);
       if (section.kind == "pipeline") md << pipeline_tables(runs.front().second);
+      if (section.kind == "lab") {
+        std::vector<std::vector<json>> all;
+        for (const auto& [run, rows] : runs) all.push_back(rows);
+        md << lab_tables(all);
+      }
       if (section.kind == "detection" || section.kind == "obstacles") {
         std::vector<std::pair<std::string, json>> sets;
         for (const auto& [run, rows] : runs) sets.emplace_back(run.at("label"), rows.front());
@@ -761,11 +800,12 @@ int run_report(const Options& opt) {
                                               ("thermovis-report-" + std::to_string(getpid()))
                                         : fs::path(opt.runs);
   fs::create_directories(dir / "scratch");
-  json meta{{"machine", machine_json()},
-            {"quick", opt.quick},
-            {"command", std::string("thermovis report") + (opt.quick ? " --quick" : "") +
-                            (opt.no_pipeline ? " --no-pipeline" : "")},
-            {"runs", json::array()}};
+  json meta{
+      {"machine", machine_json()},
+      {"quick", opt.quick},
+      {"command", std::string("thermovis report") + (opt.quick ? " --quick" : "") +
+                      (opt.no_pipeline ? " --no-pipeline" : "") + (opt.no_lab ? " --no-lab" : "")},
+      {"runs", json::array()}};
   const auto runs = plan(opt, data, dir / "scratch");
   for (size_t i = 0; i < runs.size(); ++i) {
     const Run& run = runs[i];
@@ -799,6 +839,8 @@ THERMOVIS_COMMAND(
                    "few trials, fewer methods and sets, no pipeline run (a check, minutes)");
       app.add_flag("--no-pipeline", opt->no_pipeline,
                    "leave out `thermovis bench pipeline` (it saturates the machine)");
+      app.add_flag("--no-lab", opt->no_lab,
+                   "leave out `thermovis bench lab` (it runs only as root: network namespaces)");
       app.add_option("--data", opt->data,
                      "test data root (default: $THERMOVIS_TEST_DATA, else ../shared/data)");
       app.add_option("--runs", opt->runs,

@@ -36,7 +36,8 @@ transport::TopicQos display_writer_qos() {
 // Copies the newest left image of `reader`'s samples into `ring` (reusing the oldest buffer),
 // when `wanted`; the loans go back when `samples` goes out of scope. False when the writer reused
 // the sample's slot during the copy (the copy is then dropped).
-bool copy_newest(transport::FrameSamples<GridStereoFrame>& samples, std::deque<ViewNode::Image>& ring) {
+bool copy_newest(transport::FrameSamples<GridStereoFrame>& samples,
+                 std::deque<ViewNode::Image>& ring) {
   const std::size_t i = samples.size() - 1;
   const GridStereoFrame& frame = samples[i];
   const cv::Mat left = node::view(frame, node::Eye::left);

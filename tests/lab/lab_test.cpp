@@ -274,6 +274,43 @@ TEST(Lab, PipelineOverThreeHostsRangesAsOnOneHostAndComesBackAfterALinkCut) {
   std::filesystem::remove_all(dir);
 }
 
+// Host a's link limited to 1 Gbit/s (tc), as a real port: the packed twins of the rectified
+// pairs, each sent once to host b's readers (multicast), fit it at 25 captures a second
+// (about 700 Mbit/s); the plain types took 1.8 Gbit/s at 5 (docs/deployment.md). The ranges are
+// those of one host; the share of captures answered and the latency are printed.
+TEST(Lab, PipelineOverThreeHostsOnAGigabitLink) {
+  const auto dir = thermovis::test::temp_dir("lab-gbit");
+  std::string why;
+  const auto lab = Lab::make({"a", "b", "c"}, true, why);
+  if (!lab) GTEST_SKIP() << why;
+  lab->shape("a", {"--rate", "1gbit"});
+  const int domain = thermovis::test::private_domain();
+  const thermovis::test::NetnsScope on_c(lab->ns("c"));
+  const auto participant = participant_on_lab(domain, tv::transport::kUdpProfile);
+  tv::transport::Reader<tv::RangeArray> ranges(*participant, tv::transport::topics::kRanges,
+                                               tv::transport::event_topic_qos(64));
+  SplitPipeline pipeline(*lab, dir, domain, tv::transport::kUdpProfile);
+  RangeCheck check(ranges);
+  ASSERT_GE(check.collect(Clock::now() + 120s, 1, false), 1) << "no ranges reached host c\n"
+                                                             << pipeline.logs();
+  check.collect(Clock::now() + 3s, 0, false);  // past the start
+  const std::uint64_t tx0 = lab->tx_bytes("a");
+  const auto t0 = Clock::now();
+  check.collect(t0 + 10s, 0);
+  const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  const double a_mbit_s = static_cast<double>(lab->tx_bytes("a") - tx0) * 8 / 1e6 / seconds;
+  std::cout << check.arrays() << " of " << check.captures() << " captures answered at host c over "
+            << "a 1 Gbit/s link; host a sent " << a_mbit_s << " Mbit/s\n"
+            << check.latency().table();
+  RecordProperty("results_of_captures", std::to_string(static_cast<double>(check.arrays()) /
+                                                       static_cast<double>(check.captures())));
+  RecordProperty("host_a_link_mbit_s", std::to_string(a_mbit_s));
+  ASSERT_GE(check.arrays(), 15u) << pipeline.logs();
+  check.expect_like_one_host(4);
+  for (const auto& [service, code] : pipeline.stop()) EXPECT_EQ(code, 0) << service;
+  std::filesystem::remove_all(dir);
+}
+
 // Without multicast (no multicast route on any host), discovery through a Fast DDS discovery
 // server on host a: every participant, this test's included, is a client of it.
 TEST(Lab, PipelineOverThreeHostsWithADiscoveryServerAndNoMulticast) {

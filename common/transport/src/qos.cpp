@@ -81,8 +81,7 @@ void apply_common(const TopicQos& qos, Qos& out) {
     out.resource_limits().max_samples = qos.depth;
     out.resource_limits().allocated_samples = qos.depth;
     out.data_sharing().off();
-    out.endpoint().history_memory_policy =
-        eprosima::fastrtps::rtps::DYNAMIC_REUSABLE_MEMORY_MODE;
+    out.endpoint().history_memory_policy = eprosima::fastrtps::rtps::DYNAMIC_REUSABLE_MEMORY_MODE;
   } else {
     // Small types have strings and sequences: not plain, so they go by the transports.
     out.data_sharing().off();

@@ -5,7 +5,10 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <filesystem>
 #include <fstream>
+#include <memory>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -15,6 +18,10 @@
 #include "range_pattern.hpp"
 #include "thermovis/test/child_process.hpp"
 #include "thermovis/test/data.hpp"
+#include "thermovis/transport/frames.hpp"
+#include "thermovis/transport/participant.hpp"
+#include "thermovis/transport/qos.hpp"
+#include "thermovis/transport/topics.hpp"
 
 namespace {
 
@@ -106,6 +113,86 @@ TEST(ThermovisTap, UnknownTopicIsAnError) {
                    dir / "tap.log");
   EXPECT_EQ(tap.wait(10s), 1);
   EXPECT_NE(tap.log().find("unknown topic 'thermovis/nope'"), std::string::npos) << tap.log();
+  std::filesystem::remove_all(dir);
+}
+
+// Another vendor reads frames too: the rectified visible topic's packed twin, written by a Fast
+// DDS FrameWriter (as rectify-fuse writes it), reaches thermovis-tap (Cyclone DDS) with its
+// header and exactly its image's bytes (their hash compared with the writer's).
+TEST(ThermovisTap, RecordsPackedFramesFromAFastDdsFrameWriter) {
+  namespace tt = thermovis::transport;
+  const auto dir = thermovis::test::temp_dir("tap-frames");
+  const auto record = dir / "frames.jsonl";
+  const int domain = private_domain();
+  const std::string cyclone_config =
+      "file://" + (thermovis::test::source_root() / "deploy/dds/cyclonedds-loopback.xml").string();
+  tt::ParticipantConfig config;
+  config.domain_id = domain;
+  config.profile = tt::kLoopbackProfile;
+  config.profiles_file = tt::shipped_profile_file(config.profile);
+  config.name = "tap-frame-writer";
+  tt::Participant participant(config);
+  tt::FrameWriter<thermovis::GridStereoFrame> writer(participant, tt::topics::kRectifiedVisible,
+                                                     tt::frame_topic_qos(0ns));
+  const int wanted = 3;
+  ChildProcess tap(
+      {(thermovis::test::bin_dir() / "thermovis-tap").string(),
+       std::string(tt::topics::kRectifiedVisible) + "/packed", "--domain", std::to_string(domain),
+       "--count", std::to_string(wanted), "--record", record.string()},
+      dir / "tap.log", {{"CYCLONEDDS_URI", cyclone_config}});
+  // The frame of `seq`: the pipeline grid's visible pair (MONO8), bytes following seq.
+  const auto fill = [](thermovis::GridStereoFrame& f, std::uint64_t seq) {
+    f.seq(seq);
+    f.capture_time_ns(1000 + static_cast<std::int64_t>(seq));
+    f.stamps(thermovis::PipelineStamps{});
+    f.pixel_format(thermovis::PIXEL_FORMAT_MONO8);
+    f.width(936);
+    f.height(566);
+    f.step(936);
+    f.eyes(thermovis::EYES_BOTH);
+    f.geometry_id(5);
+    for (std::size_t i = 0; i < 936u * 566u; ++i) {
+      f.left()[i] = static_cast<std::uint8_t>(i * 7 + seq);
+      f.right()[i] = static_cast<std::uint8_t>(i * 11 + seq);
+    }
+  };
+  const auto fnv1a = [](const std::uint8_t* bytes, std::size_t length) {
+    std::uint64_t h = 1469598103934665603ull;
+    for (std::size_t i = 0; i < length; ++i) h = (h ^ bytes[i]) * 1099511628211ull;
+    return h;
+  };
+  // Frames every 50 ms until the tap has its count (Cyclone's reader matches the twin first).
+  std::optional<int> tap_exit;
+  for (std::uint64_t seq = 1; seq <= 400 && !tap_exit; ++seq) {
+    auto loan = writer.loan();
+    fill(*loan, seq);
+    writer.publish(std::move(loan));
+    std::this_thread::sleep_for(50ms);
+    tap_exit = tap.poll();
+  }
+  ASSERT_TRUE(tap_exit.has_value()) << "the tap got no frames in 20 s:\n" << tap.log();
+  ASSERT_EQ(*tap_exit, 0) << tap.log();
+  EXPECT_GE(writer.packed_counters().samples, static_cast<std::uint64_t>(wanted));
+
+  std::ifstream in(record);
+  std::vector<nlohmann::json> samples;
+  for (std::string line; std::getline(in, line);) samples.push_back(nlohmann::json::parse(line));
+  ASSERT_EQ(samples.size(), static_cast<std::size_t>(wanted));
+  auto expected = std::make_unique<thermovis::GridStereoFrame>();
+  for (const auto& s : samples) {
+    const auto seq = s["seq"].get<std::uint64_t>();
+    SCOPED_TRACE("seq " + std::to_string(seq));
+    fill(*expected, seq);
+    EXPECT_EQ(s["width"].get<int>(), 936);
+    EXPECT_EQ(s["height"].get<int>(), 566);
+    EXPECT_EQ(s["step"].get<int>(), 936);
+    EXPECT_EQ(s["geometry_id"].get<int>(), 5);
+    EXPECT_EQ(s["capture_time_ns"].get<std::int64_t>(), 1000 + static_cast<std::int64_t>(seq));
+    EXPECT_EQ(s["left_bytes"].get<std::size_t>(), 936u * 566u);
+    EXPECT_EQ(s["right_bytes"].get<std::size_t>(), 936u * 566u);
+    EXPECT_EQ(s["left_fnv1a"].get<std::uint64_t>(), fnv1a(expected->left().data(), 936u * 566u));
+    EXPECT_EQ(s["right_fnv1a"].get<std::uint64_t>(), fnv1a(expected->right().data(), 936u * 566u));
+  }
   std::filesystem::remove_all(dir);
 }
 

@@ -70,4 +70,14 @@ class HealthReporter {
   SystemdNotifier systemd_;
 };
 
+// For a FrameReader (transport/frames.hpp): a packed frame that does not unpack is bad input,
+// counted in `count` and reported through `health` like a bad frame of the plain topic.
+inline std::function<void(const std::string&)> count_bad_input(std::uint64_t& count,
+                                                               HealthReporter& health) {
+  return [&count, &health](const std::string& why) {
+    ++count;
+    health.bad_input(why);
+  };
+}
+
 }  // namespace thermovis::node

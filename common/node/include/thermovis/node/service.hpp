@@ -34,8 +34,9 @@ struct CommonOptions {
   transport::FrameTransport frame_transport = transport::FrameTransport::plain;
 };
 
-// Adds --domain, --profile, --profiles-file, --frame-transport, --threads and, for a service that reads the rig
-// (bridge, rectify-fuse; the others take the geometry from thermovis/geometry), --rig.
+// Adds --domain, --profile, --profiles-file, --frame-transport, --threads and, for a service that
+// reads the rig (bridge, rectify-fuse; the others take the geometry from thermovis/geometry),
+// --rig.
 void add_common_options(CLI::App& app, CommonOptions& options, bool with_rig = true);
 
 std::unique_ptr<transport::Participant> make_participant(const CommonOptions& options);

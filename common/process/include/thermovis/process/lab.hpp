@@ -21,8 +21,8 @@ class Lab {
   // Makes a lab with the given hosts (and, unless `multicast` is false, a multicast route for
   // DDS discovery); `mtu` 0: lab.sh's default. Returns null and sets `why` when the machine
   // cannot make it (not root, no iproute2, a container without the capabilities).
-  static std::unique_ptr<Lab> make(const std::vector<std::string>& hosts, bool multicast,
-                                   int mtu, std::string& why);
+  static std::unique_ptr<Lab> make(const std::vector<std::string>& hosts, bool multicast, int mtu,
+                                   std::string& why);
   ~Lab();  // stops what runs in the lab and removes it
   Lab(const Lab&) = delete;
   Lab& operator=(const Lab&) = delete;

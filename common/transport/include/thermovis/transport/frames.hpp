@@ -139,8 +139,8 @@ class FrameReader {
         out.unpacked_.push_back(std::move(frame));
       } catch (const std::invalid_argument& e) {
         ++bad_;
-        const std::string why = packed_->topic_name() + ": frame " +
-                                std::to_string(samples[i].seq()) + ": " + e.what();
+        const std::string why =
+            packed_->topic_name() + ": frame " + std::to_string(samples[i].seq()) + ": " + e.what();
         if (bad_frame_) {
           bad_frame_(why);
         } else {
