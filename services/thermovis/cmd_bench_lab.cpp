@@ -48,6 +48,7 @@ struct Options {
   std::string scene;  // empty: the paper scene
   int mtu = 0;        // 0: lab.sh's default (1500)
   int prerender = 10;
+  double grid_scale = 0.5;  // rectify-fuse --grid-scale
   int domain = -1;  // -1: one of this process's own
   std::string log_dir = "/tmp/thermovis-lab-logs";
   bool json = false;
@@ -75,7 +76,7 @@ tv::process::Manifest split_manifest(const tv::process::Lab& lab, const Options&
       {"--source", "sim", "--scene", scene.string(), "--prerender", std::to_string(opt.prerender),
        "--rate", std::to_string(opt.rate_hz)},
       {});
-  add("rectify-fuse", "a", {}, {"bridge"});
+  add("rectify-fuse", "a", {"--grid-scale", std::to_string(opt.grid_scale)}, {"bridge"});
   add("detect", "b", {}, {"rectify-fuse"});
   add("match", "b", {}, {"detect"});
   add("range", "b", {}, {"match"});
@@ -182,6 +183,7 @@ int run_bench(const Options& opt) {
   const double p99 = tv::metrics::percentile(got.latency_ms, 99);
   if (opt.json) {
     nlohmann::json j{{"rate_hz", opt.rate_hz},
+                     {"grid_scale", opt.grid_scale},
                      {"frames", opt.frames},
                      {"profile", opt.profile},
                      {"link_rate", opt.link_rate},
@@ -236,6 +238,10 @@ const bool registered = thermovis::cli::register_command(
            ->capture_default_str()
            ->check(CLI::IsMember({tv::transport::kUdpProfile, tv::transport::kUdpPacedProfile}));
        app.add_option("--scene", opt->scene, "simulated scene (default deploy/scenes/paper.yaml)");
+       app.add_option("--grid-scale", opt->grid_scale,
+                      "rectify-fuse --grid-scale (1.0: the visible cameras' full grid)")
+           ->capture_default_str()
+           ->check(CLI::Range(0.1, 1.0));
        app.add_option("--mtu", opt->mtu, "the lab links' MTU (0: 1500; jumbo: 9000)")
            ->check(CLI::Range(0, 9000));
        app.add_option("--prerender", opt->prerender, "the bridge's pre-rendered captures")
