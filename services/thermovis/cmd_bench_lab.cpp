@@ -49,7 +49,7 @@ struct Options {
   int mtu = 0;        // 0: lab.sh's default (1500)
   int prerender = 10;
   double grid_scale = 0.5;  // rectify-fuse --grid-scale
-  int domain = -1;  // -1: one of this process's own
+  int domain = -1;          // -1: one of this process's own
   std::string log_dir = "/tmp/thermovis-lab-logs";
   bool json = false;
 };

@@ -214,6 +214,30 @@ std::unique_ptr<tv::transport::Participant> participant_on_lab(int domain,
   return std::make_unique<tv::transport::Participant>(pc);
 }
 
+// This test as the consumer on host c of `lab`: its participant and its reader of the ranges
+// are made in c's namespace (their sockets are c's).
+struct ConsumerOnC {
+  ConsumerOnC(const Lab& lab, int domain) {
+    const thermovis::test::NetnsScope on_c(lab.ns("c"));
+    participant = participant_on_lab(domain, tv::transport::kUdpProfile);
+    ranges = std::make_unique<tv::transport::Reader<tv::RangeArray>>(
+        *participant, tv::transport::topics::kRanges, tv::transport::event_topic_qos(64));
+  }
+  std::unique_ptr<tv::transport::Participant> participant;
+  std::unique_ptr<tv::transport::Reader<tv::RangeArray>> ranges;
+};
+
+// Collects checked results for `window`; returns what host a sent meanwhile, Mbit/s, and the
+// window's length in `seconds`.
+double collect_measuring_link(const Lab& lab, RangeCheck& check, std::chrono::seconds window,
+                              double& seconds) {
+  const std::uint64_t tx0 = lab.tx_bytes("a");
+  const auto t0 = Clock::now();
+  check.collect(t0 + window, 0);
+  seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  return static_cast<double>(lab.tx_bytes("a") - tx0) * 8 / 1e6 / seconds;
+}
+
 TEST(Lab, PipelineOverThreeHostsRangesAsOnOneHostAndComesBackAfterALinkCut) {
   const auto dir = thermovis::test::temp_dir("lab");
   std::string why;
@@ -222,23 +246,16 @@ TEST(Lab, PipelineOverThreeHostsRangesAsOnOneHostAndComesBackAfterALinkCut) {
   // Measurement knob: host a's link limited like a real one (e.g. 1gbit).
   if (const char* rate = std::getenv("THERMOVIS_LAB_LINK_RATE")) lab->shape("a", {"--rate", rate});
   const int domain = thermovis::test::private_domain();
-  // This test is the consumer on host c: its participant lives in c's namespace.
-  const thermovis::test::NetnsScope on_c(lab->ns("c"));
-  const auto participant = participant_on_lab(domain, tv::transport::kUdpProfile);
-  tv::transport::Reader<tv::RangeArray> ranges(*participant, tv::transport::topics::kRanges,
-                                               tv::transport::event_topic_qos(64));
+  ConsumerOnC consumer(*lab, domain);
   SplitPipeline pipeline(*lab, dir, domain, tv::transport::kUdpProfile);
-  RangeCheck check(ranges);
+  RangeCheck check(*consumer.ranges);
 
   // First results (services start, discover each other over the lab, make their maps).
   ASSERT_GE(check.collect(Clock::now() + 120s, 1, false), 1) << "no ranges reached host c\n"
                                                              << pipeline.logs();
   // Then 10 s of results, and what crossed host a's link meanwhile.
-  const std::uint64_t tx0 = lab->tx_bytes("a");
-  const auto t0 = Clock::now();
-  check.collect(t0 + 10s, 0);
-  const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
-  const double a_mbit_s = static_cast<double>(lab->tx_bytes("a") - tx0) * 8 / 1e6 / seconds;
+  double seconds = 0;
+  const double a_mbit_s = collect_measuring_link(*lab, check, 10s, seconds);
   std::cout << check.arrays() << " range arrays at host c in " << seconds << " s ("
             << check.arrays() / seconds << " /s) of " << check.captures()
             << " captures; host a sent " << a_mbit_s << " Mbit/s\n"
@@ -285,20 +302,14 @@ TEST(Lab, PipelineOverThreeHostsOnAGigabitLink) {
   if (!lab) GTEST_SKIP() << why;
   lab->shape("a", {"--rate", "1gbit"});
   const int domain = thermovis::test::private_domain();
-  const thermovis::test::NetnsScope on_c(lab->ns("c"));
-  const auto participant = participant_on_lab(domain, tv::transport::kUdpProfile);
-  tv::transport::Reader<tv::RangeArray> ranges(*participant, tv::transport::topics::kRanges,
-                                               tv::transport::event_topic_qos(64));
+  ConsumerOnC consumer(*lab, domain);
   SplitPipeline pipeline(*lab, dir, domain, tv::transport::kUdpProfile);
-  RangeCheck check(ranges);
+  RangeCheck check(*consumer.ranges);
   ASSERT_GE(check.collect(Clock::now() + 120s, 1, false), 1) << "no ranges reached host c\n"
                                                              << pipeline.logs();
   check.collect(Clock::now() + 3s, 0, false);  // past the start
-  const std::uint64_t tx0 = lab->tx_bytes("a");
-  const auto t0 = Clock::now();
-  check.collect(t0 + 10s, 0);
-  const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
-  const double a_mbit_s = static_cast<double>(lab->tx_bytes("a") - tx0) * 8 / 1e6 / seconds;
+  double seconds = 0;
+  const double a_mbit_s = collect_measuring_link(*lab, check, 10s, seconds);
   std::cout << check.arrays() << " of " << check.captures() << " captures answered at host c over "
             << "a 1 Gbit/s link; host a sent " << a_mbit_s << " Mbit/s\n"
             << check.latency().table();

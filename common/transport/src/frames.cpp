@@ -6,17 +6,28 @@
 namespace thermovis::transport {
 namespace {
 
-// The bytes an eye of `frame` holds: height x step, checked against the eye's capacity.
-template <class Plain>
-std::size_t image_bytes(const Plain& frame) {
-  const std::size_t bytes = static_cast<std::size_t>(frame.height()) * frame.step();
-  const std::size_t capacity = sizeof(frame.left());
+// height x step, checked against an eye's capacity (`what` names the side that is short).
+std::size_t checked_bytes(std::uint32_t height, std::uint32_t step, std::size_t capacity,
+                          const char* what) {
+  const std::size_t bytes = static_cast<std::size_t>(height) * step;
   if (bytes > capacity) {
-    throw std::invalid_argument("height " + std::to_string(frame.height()) + " x step " +
-                                std::to_string(frame.step()) + " = " + std::to_string(bytes) +
-                                " bytes exceeds the frame's " + std::to_string(capacity));
+    throw std::invalid_argument("height " + std::to_string(height) + " x step " +
+                                std::to_string(step) + " = " + std::to_string(bytes) +
+                                " bytes does not fit " + what + " " + std::to_string(capacity));
   }
   return bytes;
+}
+
+// The header fields every frame type has.
+template <class From, class To>
+void copy_header(const From& from, To& to) {
+  to.seq(from.seq());
+  to.capture_time_ns(from.capture_time_ns());
+  to.stamps(from.stamps());
+  to.pixel_format(from.pixel_format());
+  to.width(from.width());
+  to.height(from.height());
+  to.step(from.step());
 }
 
 void copy_eye(const void* from, std::size_t bytes, std::vector<std::uint8_t>& to) {
@@ -26,14 +37,9 @@ void copy_eye(const void* from, std::size_t bytes, std::vector<std::uint8_t>& to
 
 template <class Plain>
 void pack_common(const Plain& from, PackedStereoFrame& to, bool right_eye) {
-  const std::size_t bytes = image_bytes(from);
-  to.seq(from.seq());
-  to.capture_time_ns(from.capture_time_ns());
-  to.stamps(from.stamps());
-  to.pixel_format(from.pixel_format());
-  to.width(from.width());
-  to.height(from.height());
-  to.step(from.step());
+  const std::size_t bytes =
+      checked_bytes(from.height(), from.step(), sizeof(from.left()), "the frame's eye of");
+  copy_header(from, to);
   copy_eye(from.left().data(), bytes, to.left());
   copy_eye(from.right().data(), right_eye ? bytes : 0, to.right());
 }
@@ -41,14 +47,8 @@ void pack_common(const Plain& from, PackedStereoFrame& to, bool right_eye) {
 // The header and the eyes of `from` into `to`; `eyes` is the frame's EyeSet.
 template <class Plain>
 void unpack_common(const PackedStereoFrame& from, Plain& to, EyeSet eyes) {
-  const std::size_t bytes = static_cast<std::size_t>(from.height()) * from.step();
-  const std::size_t capacity = sizeof(to.left());
-  if (bytes > capacity) {
-    throw std::invalid_argument("height " + std::to_string(from.height()) + " x step " +
-                                std::to_string(from.step()) + " = " + std::to_string(bytes) +
-                                " bytes does not fit the plain frame's " +
-                                std::to_string(capacity));
-  }
+  const std::size_t bytes =
+      checked_bytes(from.height(), from.step(), sizeof(to.left()), "the plain frame's eye of");
   if (from.left().size() != bytes) {
     throw std::invalid_argument("left eye holds " + std::to_string(from.left().size()) +
                                 " bytes, height x step is " + std::to_string(bytes));
@@ -59,13 +59,7 @@ void unpack_common(const PackedStereoFrame& from, Plain& to, EyeSet eyes) {
                                 " bytes, " + std::to_string(right) + " expected" +
                                 (eyes == EYES_LEFT ? " (EYES_LEFT)" : ""));
   }
-  to.seq(from.seq());
-  to.capture_time_ns(from.capture_time_ns());
-  to.stamps(from.stamps());
-  to.pixel_format(from.pixel_format());
-  to.width(from.width());
-  to.height(from.height());
-  to.step(from.step());
+  copy_header(from, to);
   if (bytes > 0) std::memcpy(to.left().data(), from.left().data(), bytes);
   if (right > 0) std::memcpy(to.right().data(), from.right().data(), right);
 }
