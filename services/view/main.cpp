@@ -43,6 +43,6 @@ int main(int argc, char** argv) {
     const auto s = viewer.stats();
     std::cerr << app.common.service << ": fused frames " << s.fused_frames << ", composed "
               << s.composed << ", encoded " << s.encoded << ", overwritten while copied "
-              << s.overwritten << "\n";
+              << s.overwritten << ", bad " << s.bad << "\n";
   });
 }

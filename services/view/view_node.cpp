@@ -61,7 +61,8 @@ ViewNode::ViewNode(transport::Participant& participant, ViewHub& hub, const View
     : hub_(hub),
       config_(config),
       participant_(participant),
-      fused_in_(participant, transport::topics::kFused, frame_reader_qos()),
+      fused_in_(participant, transport::topics::kFused, frame_reader_qos(),
+                node::count_bad_input(stats_.bad, health_)),
       detections_in_(participant, transport::topics::kDetections, transport::event_topic_qos()),
       ranges_in_(participant, transport::topics::kRanges, transport::event_topic_qos()),
       obstacles_in_(participant, transport::topics::kObstacles, transport::event_topic_qos()),
@@ -107,7 +108,10 @@ void ViewNode::take_frames() {
   // pipeline ranges on would be lost for that time. The fused topic is the display's own.
   const auto reader_for = [&](std::optional<transport::FrameReader<GridStereoFrame>>& reader,
                               std::deque<Image>& ring, const char* topic, bool wanted) {
-    if (wanted && !reader) reader.emplace(participant_, topic, frame_reader_qos());
+    if (wanted && !reader) {
+      reader.emplace(participant_, topic, frame_reader_qos(),
+                     node::count_bad_input(stats_.bad, health_));
+    }
     if (!wanted && reader) {
       reader.reset();
       ring.clear();
@@ -134,6 +138,7 @@ void ViewNode::take_frames() {
         ++stats_.overwritten;
       }
     } catch (const std::exception& e) {
+      ++stats_.bad;
       health_.bad_input(band.reader->topic_name() + ": " + e.what());
     }
   }

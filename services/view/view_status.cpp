@@ -146,6 +146,7 @@ std::string PipelineStatus::json(std::int64_t now_ns, const ViewStats& view) con
                          {{"fused_frames", view.fused_frames},
                           {"copied", view.copied},
                           {"overwritten", view.overwritten},
+                          {"bad", view.bad},
                           {"range_arrays", view.range_arrays},
                           {"composed", view.composed},
                           {"encoded", view.encoded},

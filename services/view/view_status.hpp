@@ -21,6 +21,8 @@ struct ViewStats {
   std::uint64_t fused_frames = 0;  // fused frames received
   std::uint64_t copied = 0;        // left images copied out of loans
   std::uint64_t overwritten = 0;   // loans reused by the writer while copied (dropped)
+  std::uint64_t bad = 0;           // frames rejected (bad header, or a packed frame that did not
+                                   // unpack)
   std::uint64_t range_arrays = 0;  // range results received
   std::uint64_t composed = 0;      // fusion-ranging images made
   std::uint64_t encoded = 0;       // JPEGs made (all views)

@@ -78,8 +78,6 @@ class FrameWriter {
     plain_.recreate();
     packed_.recreate();
   }
-  std::uint64_t pool_recoveries() const { return plain_.pool_recoveries(); }
-  Writer<Plain>& plain() { return plain_; }
 
  private:
   Writer<Plain> plain_;
