@@ -41,7 +41,8 @@ void forward(transport::Reader<T>& in, transport::Writer<Ros>& out, const std::s
 Ros2BridgeNode::Ros2BridgeNode(transport::Participant& pipeline, transport::Participant& ros,
                                const Ros2BridgeConfig& config, const std::string& service_name)
     : config_(config),
-      fused_in_(pipeline, topics::kFused, fused_reader_qos()),
+      fused_in_(pipeline, topics::kFused, fused_reader_qos(),
+                node::count_bad_input(stats_.bad, health_)),
       ranges_in_(pipeline, topics::kRanges, transport::event_topic_qos()),
       detections_in_(pipeline, topics::kDetections, transport::event_topic_qos()),
       obstacles_in_(pipeline, topics::kObstacles, transport::event_topic_qos()),

@@ -18,6 +18,7 @@
 #include "thermovis/perception.h"
 #include "thermovis/ros2_bridge/ros2_messages.hpp"
 #include "thermovis/ros2_bridge/ros2_types.hpp"
+#include "thermovis/transport/frames.hpp"
 #include "thermovis/transport/reader.hpp"
 #include "thermovis/transport/writer.hpp"
 
@@ -58,7 +59,7 @@ class Ros2BridgeNode {
   void forward_obstacles();
 
   Ros2BridgeConfig config_;
-  transport::Reader<GridStereoFrame> fused_in_;
+  transport::FrameReader<GridStereoFrame> fused_in_;  // or its packed twin (--frame-transport)
   transport::Reader<RangeArray> ranges_in_;
   transport::Reader<DetectionArray> detections_in_;
   transport::Reader<ObstacleArray> obstacles_in_;
