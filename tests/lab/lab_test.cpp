@@ -192,6 +192,10 @@ class RangeCheck {
   std::size_t arrays() const { return truth_.arrays(); }
   // Captures made from the first checked result's to the last one's.
   std::uint64_t captures() const { return arrays() > 0 ? last_seq_ - first_seq_ + 1 : 0; }
+  // The share of those captures answered.
+  double answered_share() const {
+    return captures() > 0 ? static_cast<double>(arrays()) / static_cast<double>(captures()) : 0.0;
+  }
   Clock::time_point last() const { return last_; }
   const PathLatency& latency() const { return latency_; }
 
@@ -262,8 +266,7 @@ TEST(Lab, PipelineOverThreeHostsRangesAsOnOneHostAndComesBackAfterALinkCut) {
             << "latency per stage and hop:\n"
             << check.latency().table();
   RecordProperty("ranges_per_s", std::to_string(check.arrays() / seconds));
-  RecordProperty("results_of_captures", std::to_string(static_cast<double>(check.arrays()) /
-                                                       static_cast<double>(check.captures())));
+  RecordProperty("results_of_captures", std::to_string(check.answered_share()));
   RecordProperty("host_a_link_mbit_s", std::to_string(a_mbit_s));
   for (const auto& [name, values] : check.latency().ms)
     RecordProperty(name + " p50_ms", std::to_string(percentile(values, 50)));
@@ -313,8 +316,7 @@ TEST(Lab, PipelineOverThreeHostsOnAGigabitLink) {
   std::cout << check.arrays() << " of " << check.captures() << " captures answered at host c over "
             << "a 1 Gbit/s link; host a sent " << a_mbit_s << " Mbit/s\n"
             << check.latency().table();
-  RecordProperty("results_of_captures", std::to_string(static_cast<double>(check.arrays()) /
-                                                       static_cast<double>(check.captures())));
+  RecordProperty("results_of_captures", std::to_string(check.answered_share()));
   RecordProperty("host_a_link_mbit_s", std::to_string(a_mbit_s));
   ASSERT_GE(check.arrays(), 15u) << pipeline.logs();
   check.expect_like_one_host(4);

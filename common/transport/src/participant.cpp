@@ -6,6 +6,7 @@
 #include <set>
 #include <stdexcept>
 
+#include <fastdds/rtps/attributes/PropertyPolicy.h>
 #include <fastdds/dds/domain/DomainParticipant.hpp>
 #include <fastdds/dds/domain/DomainParticipantFactory.hpp>
 #include <fastdds/dds/publisher/Publisher.hpp>
@@ -65,17 +66,18 @@ std::filesystem::path shipped_profile_file(const std::string& profile) {
 
 namespace {
 
+// The value of a profile's property `name`, or null.
+const std::string* find_property(const dds::DomainParticipantQos& qos, const std::string& name) {
+  return eprosima::fastrtps::rtps::PropertyPolicyHelper::find_property(qos.properties(), name);
+}
+
 // Fast DDS 2.9 reads flow controllers from code only (its XML parser knows no
 // flow_controller_descriptor_list), so a profile states the frame writers' bandwidth limit as
 // properties and this registers the controller. Returns its name, or empty when not configured.
 std::string register_frame_flow_controller(dds::DomainParticipantQos& qos,
                                            const std::string& profile) {
-  const std::string* bytes = nullptr;
-  const std::string* period = nullptr;
-  for (const auto& property : qos.properties().properties()) {
-    if (property.name() == "thermovis.frames.max_bytes_per_period") bytes = &property.value();
-    if (property.name() == "thermovis.frames.period_ms") period = &property.value();
-  }
+  const std::string* bytes = find_property(qos, "thermovis.frames.max_bytes_per_period");
+  const std::string* period = find_property(qos, "thermovis.frames.period_ms");
   if (bytes == nullptr) return {};
   auto number = [&](const std::string* text, const char* what, long long low, long long high) {
     try {
@@ -107,9 +109,7 @@ std::string register_frame_flow_controller(dds::DomainParticipantQos& qos,
 // (deploy/security/make-security.sh). identity_ca.cert.pem / permissions_ca.cert.pem, when there,
 // stand for ca.cert.pem as the CA of the identities / of the signed documents.
 bool is_secure(const dds::DomainParticipantQos& qos) {
-  for (const auto& property : qos.properties().properties())
-    if (property.name() == "dds.sec.auth.plugin") return true;
-  return false;
+  return find_property(qos, "dds.sec.auth.plugin") != nullptr;
 }
 
 void add_security_files(dds::DomainParticipantQos& qos, const ParticipantConfig& config) {
@@ -202,9 +202,8 @@ Participant::Participant(const ParticipantConfig& config) : state_(std::make_sha
   state_->domain_id = config.domain_id;
   state_->profile = config.profile;
   state_->frame_transport = config.frame_transport;
-  for (const auto& property : qos.properties().properties())
-    if (property.name() == "thermovis.packed.multicast_group")
-      state_->packed_multicast_group = property.value();
+  if (const std::string* group = find_property(qos, "thermovis.packed.multicast_group"))
+    state_->packed_multicast_group = *group;
   state_->frame_flow_controller = register_frame_flow_controller(qos, config.profile);
   add_security_files(qos, config);
   state_->participant = factory->create_participant(config.domain_id, qos);
