@@ -159,8 +159,7 @@ FastRemapper::FastRemapper(const FixedPointMap& map)
     : size_(map.size()), source_size_(map.source_size()) {
   const int w = source_size_.width;
   const int h = source_size_.height;
-  positions_.resize(static_cast<std::size_t>(size_.area()));
-  fractions_.resize(positions_.size());
+  entries_.resize(static_cast<std::size_t>(size_.area()));
   row_runs_.reserve(static_cast<std::size_t>(size_.height) + 1);
   std::size_t i = 0;
   for (int v = 0; v < size_.height; ++v) {
@@ -171,17 +170,16 @@ FastRemapper::FastRemapper(const FixedPointMap& map)
       if (e.valid()) {
         const int x_q5 = absolute_q5(e.qx, w);
         const int y_q5 = absolute_q5(e.qy, h);
-        const int x0 = x_q5 >> kFractionBits;  // in [-1024, 2046]: fits the packed int16
+        const int x0 = x_q5 >> kFractionBits;
         const int y0 = y_q5 >> kFractionBits;
-        positions_[i] = detail::pack_position(x0, y0);
-        fractions_[i] = static_cast<std::uint16_t>((y_q5 & (kSubpixelSteps - 1)) * kSubpixelSteps +
-                                                   (x_q5 & (kSubpixelSteps - 1)));
         const bool any_inside = x0 >= -1 && x0 < w && y0 >= -1 && y0 < h;
         // The 8-bit grey and BGR kernels load 2 bytes beyond the right neighbour: past the
         // source's end on its last row unless x0 + 3 < w.
         const bool interior =
             x0 >= 0 && x0 + 1 < w && y0 >= 0 && y0 + 1 < h && (y0 + 2 < h || x0 + 3 < w);
         kind = interior ? RunKind::interior : any_inside ? RunKind::border : RunKind::zero;
+        // Zero entries are never read (and may lie beyond what an entry holds).
+        if (kind != RunKind::zero) entries_[i] = detail::pack_entry(x_q5, y_q5);
       }
       if (u > 0 && runs_.back().kind == kind) {
         runs_.back().end = u + 1;
@@ -221,17 +219,14 @@ void FastRemapper::remap(const cv::Mat& source, cv::Mat& out, int first_row, int
             break;
           case RunKind::interior:
             remap_interior<Sample, Channels>({src.data, step,
-                                              positions_.data() + row_start + run.begin,
-                                              fractions_.data() + row_start + run.begin,
+                                              entries_.data() + row_start + run.begin,
                                               row + run.begin * Channels, run.end - run.begin});
             break;
           case RunKind::border:
             for (int u = run.begin; u < run.end; ++u) {
-              const std::int32_t p = positions_[row_start + u];
-              const int f = fractions_[row_start + u];
-              sample_model<Sample, Channels>(
-                  src, detail::packed_x(p) * kSubpixelSteps + (f & (kSubpixelSteps - 1)),
-                  detail::packed_y(p) * kSubpixelSteps + (f >> kFractionBits), row + u * Channels);
+              const std::uint32_t entry = entries_[row_start + u];
+              sample_model<Sample, Channels>(src, detail::entry_x_q5(entry),
+                                             detail::entry_y_q5(entry), row + u * Channels);
             }
             break;
         }

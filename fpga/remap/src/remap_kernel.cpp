@@ -23,6 +23,7 @@
 #include <cstring>
 
 #include "remap_kernel.hpp"
+#include "thermovis/fpga/fixed_map.hpp"
 
 HWY_BEFORE_NAMESPACE();
 namespace thermovis::fpga::detail {
@@ -137,13 +138,24 @@ HWY_INLINE void bgr_sums_by_pairs(D d, const std::uint8_t* source, const std::in
 }
 #endif
 
-// Byte offsets in the source of the top-left neighbours of pixels i .. i + Lanes(d) - 1.
-template <int PixelBytes, class D>
-HWY_INLINE hn::Vec<D> top_left_offsets(D d, const InteriorRun& run, int i) {
-  const hn::Vec<D> packed = hn::LoadU(d, run.positions + i);
-  const hn::Vec<D> x0 = hn::ShiftRight<16>(hn::ShiftLeft<16>(packed));  // sign-extends
-  const hn::Vec<D> y0 = hn::ShiftRight<16>(packed);
-  return hn::Add(hn::Mul(y0, hn::Set(d, run.step)), hn::Mul(x0, hn::Set(d, PixelBytes)));
+// The entries (pack_entry) of pixels i .. i + Lanes(d) - 1 as their absolute positions plus
+// one pixel, 1/32 px: x in `x`, y in `y`.
+template <class D>
+HWY_INLINE void load_entries(D d, const InteriorRun& run, int i, hn::Vec<D>* x, hn::Vec<D>* y) {
+  const hn::RebindToUnsigned<D> du;
+  const auto entries = hn::LoadU(du, run.entries + i);
+  *x = hn::BitCast(d, hn::And(entries, hn::Set(du, 0xffffu)));
+  *y = hn::BitCast(d, hn::ShiftRight<16>(entries));  // logical: y + 32 may exceed 2^15
+}
+
+// Byte offsets in the source of the top-left neighbours of pixels with positions x, y (as
+// load_entries gives them): the entries' added pixel is taken off here.
+template <int PixelBytes, class D, class V = hn::Vec<D>>
+HWY_INLINE V top_left_offsets(D d, const InteriorRun& run, V x, V y) {
+  const V x0 = hn::ShiftRight<kFractionBits>(x);
+  const V y0 = hn::ShiftRight<kFractionBits>(y);
+  return hn::Sub(hn::Add(hn::Mul(y0, hn::Set(d, run.step)), hn::Mul(x0, hn::Set(d, PixelBytes))),
+                 hn::Set(d, run.step + PixelBytes));
 }
 
 // Samples Lanes(d) output pixels from pixel `i` of the run.
@@ -152,12 +164,11 @@ HWY_INLINE void remap_lanes(D d, const InteriorRun& run, int i) {
   using V = hn::Vec<D>;
   constexpr int kPixelBytes = static_cast<int>(sizeof(Sample)) * Channels;
 
-  const hn::Rebind<std::uint16_t, D> d16;
-  const hn::Rebind<std::uint32_t, D> du32;
-  const V fractions = hn::BitCast(d, hn::PromoteTo(du32, hn::LoadU(d16, run.fractions + i)));
-  const V fx = hn::And(fractions, hn::Set(d, 31));
-  const V fy = hn::ShiftRight<5>(fractions);
-  const V top_offsets = top_left_offsets<kPixelBytes>(d, run, i);
+  V x, y;
+  load_entries(d, run, i, &x, &y);
+  const V fx = hn::And(x, hn::Set(d, kSubpixelSteps - 1));
+  const V fy = hn::And(y, hn::Set(d, kSubpixelSteps - 1));
+  const V top_offsets = top_left_offsets<kPixelBytes>(d, run, x, y);
   const V bottom_offsets = hn::Add(top_offsets, hn::Set(d, run.step));
 
   V acc[Channels];
@@ -219,7 +230,9 @@ constexpr int kPrefetchEveryNthPixel = 2;
 template <int PixelBytes, class D>
 HWY_INLINE void prefetch_source_lines(D d, const InteriorRun& run, int i) {
   HWY_ALIGN std::int32_t offsets[hn::MaxLanes(D())];
-  hn::Store(top_left_offsets<PixelBytes>(d, run, i), d, offsets);
+  hn::Vec<D> x, y;
+  load_entries(d, run, i, &x, &y);
+  hn::Store(top_left_offsets<PixelBytes>(d, run, x, y), d, offsets);
   for (std::size_t k = 0; k < hn::Lanes(d); k += kPrefetchEveryNthPixel) {
     hwy::Prefetch(run.source + offsets[k]);
     hwy::Prefetch(run.source + offsets[k] + run.step);

@@ -8,22 +8,26 @@
 
 namespace thermovis::fpga::detail {
 
-// Packs the integer source position (x0, y0) of a table entry (the top-left neighbour, px) in
-// one word: y0 in the high 16 bits, x0 in the low 16 bits, both two's complement.
-inline std::int32_t pack_position(int x0, int y0) {
-  return static_cast<std::int32_t>((static_cast<std::uint32_t>(y0) << 16) |
-                                   static_cast<std::uint16_t>(x0));
+// One table entry as the fast path stores it, 4 bytes: the absolute source position in 1/32 px
+// (fixed_map.hpp's x_q5, y_q5) plus one pixel, y in the high 16 bits, x in the low 16 bits, both
+// unsigned. The pixel added makes every entry that samples anything (top-left neighbour at
+// column or row -1 or more) non-negative; sources are at most 2046 px wide and high, so
+// (2046 + 1) * 32 fits. Integer part ((q >> 5) - 1) and fraction (q & 31) come back unchanged:
+// adding 32 leaves the low 5 bits as they were.
+inline constexpr int kEntryBias = 32;  // one pixel in 1/32 px
+inline std::uint32_t pack_entry(int x_q5, int y_q5) {
+  return (static_cast<std::uint32_t>(y_q5 + kEntryBias) << 16) |
+         static_cast<std::uint32_t>(x_q5 + kEntryBias);
 }
-inline int packed_x(std::int32_t packed) { return static_cast<std::int16_t>(packed & 0xffff); }
-inline int packed_y(std::int32_t packed) { return packed >> 16; }
+inline int entry_x_q5(std::uint32_t entry) { return static_cast<int>(entry & 0xffff) - kEntryBias; }
+inline int entry_y_q5(std::uint32_t entry) { return static_cast<int>(entry >> 16) - kEntryBias; }
 
 // One run of `count` consecutive output pixels of one row.
 struct InteriorRun {
-  const std::uint8_t* source;      // the source's first row
-  std::int32_t step;               // source row pitch, bytes (the kernel's offsets are int32)
-  const std::int32_t* positions;   // pack_position(x0, y0) per output pixel
-  const std::uint16_t* fractions;  // fy * 32 + fx per output pixel (1/32 px)
-  void* out;                       // the run's first output pixel
+  const std::uint8_t* source;    // the source's first row
+  std::int32_t step;             // source row pitch, bytes (the kernel's offsets are int32)
+  const std::uint32_t* entries;  // pack_entry(x_q5, y_q5) per output pixel
+  void* out;                     // the run's first output pixel
   int count;
 };
 
