@@ -182,6 +182,8 @@ TargetMatch MatchNode::target_match(const Detection& detection, pipeline::Band b
 
 void MatchNode::match_boxes(const DetectionArray& detections, const pipeline::MatchImages& images,
                             std::vector<TargetMatch>& into) {
+  std::vector<pipeline::MatchStage::Box> boxes;
+  boxes.reserve(detections.detections().size());
   for (const Detection& detection : detections.detections()) {
     const cv::Rect box = node::to_rect(detection.box());
     if (box.empty()) {
@@ -189,9 +191,15 @@ void MatchNode::match_boxes(const DetectionArray& detections, const pipeline::Ma
                                   " of frame " + std::to_string(detections.frame_seq()) +
                                   ": box with no area or a non-finite field");
     }
-    for (pipeline::BandMatches& band :
-         stage_.stage().match(images, box, detection.label().to_string())) {
-      into.push_back(target_match(detection, band.band, std::move(band.result)));
+    boxes.push_back({box, detection.label().to_string()});
+  }
+  // The boxes in parallel with --threads 2 (the other core is free once the visible pair is
+  // rectified), their entries in the detections' order.
+  std::vector<std::vector<pipeline::BandMatches>> matched =
+      stage_.stage().match_each(images, boxes);
+  for (std::size_t i = 0; i < matched.size(); ++i) {
+    for (pipeline::BandMatches& band : matched[i]) {
+      into.push_back(target_match(detections.detections()[i], band.band, std::move(band.result)));
     }
   }
 }

@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <exception>
 #include <limits>
+#include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
 #include <stdexcept>
 
@@ -333,6 +335,33 @@ std::vector<BandMatches> MatchStage::match(const MatchImages& images, const cv::
       out.assign(1, std::move(infrared));
     }
   }
+  return out;
+}
+
+std::vector<std::vector<BandMatches>> MatchStage::match_each(const MatchImages& images,
+                                                             const std::vector<Box>& boxes) const {
+  std::vector<std::vector<BandMatches>> out(boxes.size());
+  std::vector<std::exception_ptr> errors(boxes.size());
+  const auto run = [&](const cv::Range& range) {
+    for (int i = range.start; i < range.end; ++i) {
+      const auto k = static_cast<std::size_t>(i);
+      try {
+        out[k] = match(images, boxes[k].box, boxes[k].label);
+      } catch (...) {
+        errors[k] = std::current_exception();
+      }
+    }
+  };
+  const int n = static_cast<int>(boxes.size());
+  // One box per piece: their costs differ by far more than the scheduling's (a near person
+  // has hundreds of points, a far one a region alignment).
+  if (n > 1 && cv::getNumThreads() > 1) {
+    cv::parallel_for_(cv::Range(0, n), run, n);
+  } else {
+    run(cv::Range(0, n));
+  }
+  for (const std::exception_ptr& e : errors)
+    if (e) std::rethrow_exception(e);
   return out;
 }
 

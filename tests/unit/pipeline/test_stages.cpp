@@ -3,7 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
+#include <vector>
 
 #include "thermovis/pipeline/detect_stage.hpp"
 #include "thermovis/pipeline/match_stage.hpp"
@@ -100,6 +102,47 @@ TEST(MatchStage, ImagesOffTheGridOrOfTheWrongTypeAreNamed) {
         << e.what();
   }
   EXPECT_THROW(pl::MatchStage::stage_grey(cv::Mat(4, 4, CV_32FC1)), std::invalid_argument);
+}
+
+TEST(MatchStage, EachBoxOfACaptureOnWorkerThreadsAsAlone) {
+  const Pairs pairs(12);
+  const auto matcher = stage(pl::BandChoice::both);
+  const std::vector<pl::MatchStage::Box> boxes = {{kBox, "person"},
+                                                  {cv::Rect(100, 80, 12, 30), "person"},
+                                                  {cv::Rect(600, 300, 90, 140), ""},
+                                                  {cv::Rect(250, 400, 20, 50), "person"},
+                                                  {cv::Rect(700, 100, 30, 30), "car"}};
+  const int threads = cv::getNumThreads();
+  cv::setNumThreads(2);
+  const auto each = matcher.match_each(pairs.images(), boxes);
+  cv::setNumThreads(threads);
+  ASSERT_EQ(each.size(), boxes.size());
+  for (std::size_t i = 0; i < boxes.size(); ++i) {
+    const auto alone = matcher.match(pairs.images(), boxes[i].box, boxes[i].label);
+    ASSERT_EQ(each[i].size(), alone.size()) << "box " << i;
+    for (std::size_t b = 0; b < alone.size(); ++b) {
+      const auto& got = each[i][b].result;
+      const auto& want = alone[b].result;
+      EXPECT_EQ(each[i][b].band, alone[b].band);
+      ASSERT_EQ(got.matches.size(), want.matches.size()) << "box " << i;
+      ASSERT_FALSE(want.matches.empty()) << "box " << i;
+      for (std::size_t k = 0; k < want.matches.size(); ++k) {
+        EXPECT_EQ(got.matches[k].left, want.matches[k].left);
+        EXPECT_EQ(got.matches[k].disparity_px, want.matches[k].disparity_px);
+      }
+      ASSERT_EQ(got.region.ok(), want.region.ok());
+      if (want.region.ok()) {
+        EXPECT_EQ(got.region.disparity_px, want.region.disparity_px);
+      }
+    }
+  }
+  // A bad capture's error comes back to the caller from the workers.
+  pl::MatchImages small = pairs.images();
+  small.primary_left = small.primary_left(cv::Rect(0, 0, 100, 100)).clone();
+  cv::setNumThreads(2);
+  EXPECT_THROW(matcher.match_each(small, boxes), std::invalid_argument);
+  cv::setNumThreads(threads);
+  EXPECT_TRUE(matcher.match_each(pairs.images(), {}).empty());
 }
 
 TEST(RangeStage, CombinesTwoPairsAndRefusesTwoEntriesOfOne) {

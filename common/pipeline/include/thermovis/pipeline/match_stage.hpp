@@ -101,6 +101,15 @@ class MatchStage {
   // where no points start it (typical_height_m).
   std::vector<BandMatches> match(const MatchImages& images, const cv::Rect& box,
                                  const std::string& label = "") const;
+  // match() of every box of a capture, in the boxes' order: with cv::getNumThreads() > 1 (a
+  // service's --threads) the boxes are shared among OpenCV's worker threads, the results
+  // unchanged. The first box's error (in the boxes' order) is rethrown after all have run.
+  struct Box {
+    cv::Rect box;
+    std::string label;
+  };
+  std::vector<std::vector<BandMatches>> match_each(const MatchImages& images,
+                                                   const std::vector<Box>& boxes) const;
   // One pair: `left`/`right` grey for visible and fused, counts for infrared.
   // `infrared_left`: the grid's left infrared image (counts), where the region's silhouette is
   // found (empty: the region is the whole box). `height_m`: the class's height range
