@@ -9,6 +9,7 @@
 #include <opencv2/ml.hpp>
 #include <opencv2/objdetect.hpp>
 #include <stdexcept>
+#include <string>
 #include <utility>
 
 namespace thermovis::detect {
@@ -304,6 +305,50 @@ BoxStats box_stats(const cv::Mat& box) {
 
 }  // namespace
 
+namespace {
+
+constexpr int kMosaicColumns = 64;  // windows per row of the mosaic
+
+}  // namespace
+
+HogMosaic::HogMosaic(const cv::HOGDescriptor& hog, int windows)
+    : hog_(hog),
+      windows_(std::max(windows, 0)),
+      tile_(hog.winSize.width + 2, hog.winSize.height + 2),
+      mosaic_((windows_ + kMosaicColumns - 1) / kMosaicColumns * tile_.height,
+              std::min(windows_, kMosaicColumns) * tile_.width, CV_8UC1, cv::Scalar(0)),
+      scratch_(hog.winSize, CV_8UC1) {
+  locations_.reserve(static_cast<std::size_t>(windows_));
+  for (int i = 0; i < windows_; ++i) {
+    locations_.emplace_back((i % kMosaicColumns) * tile_.width + 1,
+                            (i / kMosaicColumns) * tile_.height + 1);
+  }
+}
+
+void HogMosaic::set(int i) {
+  if (i < 0 || i >= windows_) {
+    throw std::out_of_range("HOG mosaic: window " + std::to_string(i) + " of " +
+                            std::to_string(windows_));
+  }
+  if (scratch_.type() != CV_8UC1 || scratch_.size() != hog_.winSize) {
+    throw std::invalid_argument("HOG mosaic: the window is not an 8-bit image of the HOG's size");
+  }
+  const cv::Point at = locations_[static_cast<std::size_t>(i)] - cv::Point(1, 1);
+  cv::Mat framed = mosaic_(cv::Rect(at, tile_));
+  cv::copyMakeBorder(scratch_, framed, 1, 1, 1, 1, cv::BORDER_REFLECT_101);
+}
+
+std::vector<float> HogMosaic::compute() const {
+  std::vector<float> descriptors;
+  if (windows_ == 0) return descriptors;
+  hog_.compute(mosaic_, descriptors, cv::Size(), cv::Size(), locations_);
+  if (descriptors.size() != static_cast<std::size_t>(windows_) * hog_.getDescriptorSize()) {
+    throw std::logic_error("HOG mosaic: " + std::to_string(descriptors.size()) + " values for " +
+                           std::to_string(windows_) + " windows");
+  }
+  return descriptors;
+}
+
 cv::Mat candidate_features(const cv::Mat& ir8, const std::vector<Candidate>& candidates) {
   if (ir8.type() != CV_8UC1) throw std::invalid_argument("candidate_features: needs CV_8UC1");
   cv::Mat features(static_cast<int>(candidates.size()), feature_count(), CV_32F, cv::Scalar(0));
@@ -312,8 +357,8 @@ cv::Mat candidate_features(const cv::Mat& ir8, const std::vector<Candidate>& can
   const cv::HOGDescriptor hog = make_hog();
   const AreaSums sums(ir8);
   const cv::Rect image(0, 0, ir8.cols, ir8.rows);
-  std::vector<float> descriptor;
-  cv::Mat window;
+  HogMosaic mosaic(hog, static_cast<int>(candidates.size()));
+  cv::Mat& window = mosaic.scratch();
   for (std::size_t i = 0; i < candidates.size(); ++i) {
     const Candidate& c = candidates[i];
     const cv::Rect outer = grown(c.box, kMargin);
@@ -330,7 +375,7 @@ cv::Mat candidate_features(const cv::Mat& ir8, const std::vector<Candidate>& can
                  patch.cols > kWindow.width ? cv::INTER_AREA : cv::INTER_LINEAR);
       patch_sum = cv::sum(patch)[0];
     }
-    hog.compute(window, descriptor);
+    mosaic.set(static_cast<int>(i));
     const BoxStats box = box_stats(ir8(c.box));
     const double ring_area = static_cast<double>(outer.area()) - c.box.area();
     const double ring_mean = ring_area > 0 ? (patch_sum - sums.sum(c.box)) / ring_area : box.mean;
@@ -345,7 +390,13 @@ cv::Mat candidate_features(const cv::Mat& ir8, const std::vector<Candidate>& can
     row[7] = static_cast<float>(box.sd / f.sigma);
     row[8] = static_cast<float>(c.growth);
     row[9] = c.split ? 1.0F : 0.0F;
-    std::copy(descriptor.begin(), descriptor.end(), row + kShapeFeatures);
+  }
+  const std::vector<float> descriptors = mosaic.compute();
+  const std::size_t size = hog.getDescriptorSize();
+  for (std::size_t i = 0; i < candidates.size(); ++i) {
+    const auto first = descriptors.begin() + static_cast<std::ptrdiff_t>(i * size);
+    std::copy(first, first + static_cast<std::ptrdiff_t>(size),
+              features.ptr<float>(static_cast<int>(i)) + kShapeFeatures);
   }
   return features;
 }

@@ -241,6 +241,45 @@ TEST(InfraredCandidates, TouchingPeopleGetABoxEach) {
   EXPECT_LT(best, 0.6);
 }
 
+// The mosaic's descriptors are each window's own (one compute() call per window), to the bit:
+// textured and flat windows, counts that fill a mosaic row exactly, leave a part row, or span
+// several rows.
+TEST(HogMosaic, DescriptorsAreEachWindowsAlone) {
+  const cv::HOGDescriptor hog(cv::Size(20, 20), cv::Size(10, 10), cv::Size(5, 5), cv::Size(5, 5),
+                              9);
+  cv::RNG rng(3);
+  for (const int count : {1, 63, 64, 65, 130}) {
+    std::vector<cv::Mat> windows;
+    dt::HogMosaic mosaic(hog, count);
+    for (int i = 0; i < count; ++i) {
+      cv::Mat w(hog.winSize, CV_8UC1);
+      rng.fill(w, cv::RNG::UNIFORM, 0, 256);
+      cv::GaussianBlur(w, w, cv::Size(3, 3), 0.5 + (i % 4) * 0.5);
+      if (i % 7 == 0) w.setTo(90);  // flat: no gradient at all
+      w.copyTo(mosaic.scratch());
+      mosaic.set(i);
+      windows.push_back(w);
+    }
+    const std::vector<float> all = mosaic.compute();
+    const std::size_t size = hog.getDescriptorSize();
+    ASSERT_EQ(all.size(), static_cast<std::size_t>(count) * size);
+    std::vector<float> alone;
+    for (int i = 0; i < count; ++i) {
+      hog.compute(windows[static_cast<std::size_t>(i)], alone);
+      ASSERT_EQ(alone.size(), size);
+      for (std::size_t k = 0; k < size; ++k) {
+        ASSERT_EQ(all[static_cast<std::size_t>(i) * size + k], alone[k])
+            << count << " windows, window " << i << ", value " << k;
+      }
+    }
+  }
+  dt::HogMosaic mosaic(hog, 2);
+  EXPECT_THROW(mosaic.set(2), std::out_of_range);
+  mosaic.scratch() = cv::Mat(10, 10, CV_8UC1);
+  EXPECT_THROW(mosaic.set(0), std::invalid_argument);
+  EXPECT_TRUE(dt::HogMosaic(hog, 0).compute().empty());
+}
+
 TEST(PersonDetector, BadInput) {
   dt::PersonDetectorOptions o;
   o.band = dt::Band::fused;

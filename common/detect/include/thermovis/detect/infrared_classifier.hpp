@@ -20,6 +20,7 @@
 #include <filesystem>
 #include <memory>
 #include <opencv2/core/mat.hpp>
+#include <opencv2/objdetect.hpp>
 #include <vector>
 
 #include "thermovis/detect/detectors.hpp"
@@ -68,6 +69,33 @@ std::vector<Candidate> infrared_candidates(const cv::Mat& ir8,
 
 // One CV_32F row of features per candidate (same order).
 cv::Mat candidate_features(const cv::Mat& ir8, const std::vector<Candidate>& candidates);
+
+// The HOG descriptors of many 8-bit windows of one size in one cv::HOGDescriptor::compute call:
+// the windows are laid side by side in a mosaic, each in a 1-px BORDER_REFLECT_101 frame. The
+// frame gives each window's edge pixels the gradients compute() gives a window alone (it
+// reflects the same way beyond an image's edge), so the descriptors are bit-identical to one
+// call per window, without that call's per-image set-up (candidate_features' windows: about
+// 1.5x faster).
+class HogMosaic {
+ public:
+  // `windows` windows of hog.winSize.
+  HogMosaic(const cv::HOGDescriptor& hog, int windows);
+  // The window to write window i into (CV_8UC1, hog.winSize; a scratch image, framed by set).
+  cv::Mat& scratch() { return scratch_; }
+  // Frames scratch() as window i. Throws std::out_of_range for an index outside 0..windows-1 and
+  // std::invalid_argument when scratch() is not a CV_8UC1 image of the window size.
+  void set(int i);
+  // windows x descriptor size floats, window after window.
+  std::vector<float> compute() const;
+
+ private:
+  const cv::HOGDescriptor& hog_;
+  int windows_ = 0;
+  cv::Size tile_;
+  cv::Mat mosaic_;
+  cv::Mat scratch_;
+  std::vector<cv::Point> locations_;
+};
 
 // The trained scorer. The model file (.yml or .yml.gz) holds two OpenCV ml::Boost models in
 // FileStorage form, nodes "person" and "fit".
