@@ -2,15 +2,20 @@
 // pair grid at --grid-scale 0.5: 936 x 566): a simulated capture of the paper scene, its left
 // infrared camera (16-bit raw counts) rectified onto that grid, people searched with the grid's
 // ground prior. The infrared detectors: the trained classifier (shipped model) and the
-// simulator-tuned warm blobs; each on the raw counts and on the same frame made 8-bit.
+// simulator-tuned warm blobs; each on the raw counts and on the same frame made 8-bit. Also the
+// classifier's HOGs two ways (BM_CandidateHogs) and connected components two ways.
 // Run: build/bin/bench_detect  (the machine is shared: absolute times move with the load)
 #include <benchmark/benchmark.h>
 
+#include <chrono>
 #include <memory>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
+#include <opencv2/objdetect.hpp>
+#include <vector>
 
 #include "thermovis/detect/detectors.hpp"
+#include "thermovis/detect/infrared_classifier.hpp"
 #include "thermovis/detect/person_detector.hpp"
 #include "thermovis/fpga/remap.hpp"
 #include "thermovis/rectify/stereo_geometry.hpp"
@@ -102,7 +107,53 @@ void BM_Components(benchmark::State& state) {
   state.counters["set_pixels"] = cv::countNonZero(mask);
 }
 
+// The HOG descriptors of the classifier's candidate windows (the frame's candidates, each box
+// shrunk to the 20 x 20 window): one cv::HOGDescriptor::compute per window (OpenCV's way) against
+// detect::HogMosaic (one call over the framed windows), both in every iteration, one thread.
+// Counters: each way's ms per frame and opencv_over_ours, the ratio in the same run.
+void BM_CandidateHogs(benchmark::State& state) {
+  const cv::Mat& ir8 = frame().eight_bit;
+  const cv::HOGDescriptor hog(cv::Size(20, 20), cv::Size(10, 10), cv::Size(5, 5), cv::Size(5, 5),
+                              9);
+  std::vector<cv::Mat> windows;
+  for (const detect::Candidate& c : detect::infrared_candidates(ir8)) {
+    cv::Mat w;
+    cv::resize(ir8(c.box), w, hog.winSize, 0, 0, cv::INTER_AREA);
+    windows.push_back(w);
+  }
+  const int threads = cv::getNumThreads();
+  cv::setNumThreads(1);
+  using clock = std::chrono::steady_clock;
+  clock::duration opencv{}, ours{};
+  std::vector<float> one, all;
+  for (auto _ : state) {
+    const auto t0 = clock::now();
+    for (const cv::Mat& w : windows) hog.compute(w, one);
+    const auto t1 = clock::now();
+    detect::HogMosaic mosaic(hog, static_cast<int>(windows.size()));
+    for (std::size_t i = 0; i < windows.size(); ++i) {
+      windows[i].copyTo(mosaic.scratch());
+      mosaic.set(static_cast<int>(i));
+    }
+    all = mosaic.compute();
+    const auto t2 = clock::now();
+    opencv += t1 - t0;
+    ours += t2 - t1;
+    benchmark::DoNotOptimize(all.data());
+  }
+  cv::setNumThreads(threads);
+  const auto ms = [&](clock::duration d) {
+    return std::chrono::duration<double, std::milli>(d).count() /
+           static_cast<double>(state.iterations());
+  };
+  state.counters["windows"] = static_cast<double>(windows.size());
+  state.counters["opencv_ms"] = ms(opencv);
+  state.counters["ours_ms"] = ms(ours);
+  state.counters["opencv_over_ours"] = ms(opencv) / ms(ours);
+}
+
 BENCHMARK(BM_Components)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
+BENCHMARK(BM_CandidateHogs)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
 BENCHMARK(BM_ClassifierRaw)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
 BENCHMARK(BM_Classifier8bit)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
 BENCHMARK(BM_WarmBlobsRaw)->Unit(benchmark::kMillisecond)->MeasureProcessCPUTime();
