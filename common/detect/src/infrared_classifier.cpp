@@ -307,7 +307,16 @@ BoxStats box_stats(const cv::Mat& box) {
 
 namespace {
 
-constexpr int kMosaicColumns = 64;  // windows per row of the mosaic
+constexpr int kMosaicColumns = 64;  // at most this many windows per row of the mosaic
+
+// Windows per row: as many rows as kMosaicColumns needs, the windows spread evenly over them
+// (the gradients are computed over the whole mosaic: a last row of few windows would waste up
+// to a row of tiles).
+int mosaic_columns(int windows) {
+  if (windows <= 0) return 1;
+  const int rows = (windows + kMosaicColumns - 1) / kMosaicColumns;
+  return (windows + rows - 1) / rows;
+}
 
 }  // namespace
 
@@ -315,13 +324,13 @@ HogMosaic::HogMosaic(const cv::HOGDescriptor& hog, int windows)
     : hog_(hog),
       windows_(std::max(windows, 0)),
       tile_(hog.winSize.width + 2, hog.winSize.height + 2),
-      mosaic_((windows_ + kMosaicColumns - 1) / kMosaicColumns * tile_.height,
-              std::min(windows_, kMosaicColumns) * tile_.width, CV_8UC1, cv::Scalar(0)),
+      columns_(mosaic_columns(windows_)),
+      mosaic_((windows_ + columns_ - 1) / columns_ * tile_.height, columns_ * tile_.width, CV_8UC1,
+              cv::Scalar(0)),
       scratch_(hog.winSize, CV_8UC1) {
   locations_.reserve(static_cast<std::size_t>(windows_));
   for (int i = 0; i < windows_; ++i) {
-    locations_.emplace_back((i % kMosaicColumns) * tile_.width + 1,
-                            (i / kMosaicColumns) * tile_.height + 1);
+    locations_.emplace_back((i % columns_) * tile_.width + 1, (i / columns_) * tile_.height + 1);
   }
 }
 

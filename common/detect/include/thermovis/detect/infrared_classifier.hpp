@@ -92,6 +92,7 @@ class HogMosaic {
   const cv::HOGDescriptor& hog_;
   int windows_ = 0;
   cv::Size tile_;
+  int columns_ = 1;  // windows per row of the mosaic
   cv::Mat mosaic_;
   cv::Mat scratch_;
   std::vector<cv::Point> locations_;
