@@ -16,26 +16,38 @@ namespace thermovis::detect {
 
 namespace {
 
-// Grey levels of the field (pixels > 0), on a 1-in-16 subsample (8-bit or 16-bit image).
-std::vector<float> field_samples(const cv::Mat& image) {
-  std::vector<float> samples;
-  samples.reserve(image.total() / 16 + 1);
-  for (int y = 0; y < image.rows; y += 4) {
-    for (int x = 0; x < image.cols; x += 4) {
-      const float v =
-          image.depth() == CV_16U ? image.at<std::uint16_t>(y, x) : image.at<std::uint8_t>(y, x);
-      if (v > 0) samples.push_back(v);
+// The field (counts > 0) of a 16-bit frame on a 1-in-16 subsample, as a histogram of its
+// counts: its order statistics without sorting the samples.
+class FieldHistogram {
+ public:
+  explicit FieldHistogram(const cv::Mat& counts) : bins_(std::size_t{1} << 16, 0) {
+    for (int y = 0; y < counts.rows; y += 4) {
+      const std::uint16_t* row = counts.ptr<std::uint16_t>(y);
+      for (int x = 0; x < counts.cols; x += 4) {
+        if (row[x] == 0) continue;
+        ++bins_[row[x]];
+        ++samples_;
+      }
     }
   }
-  return samples;
-}
+  std::size_t samples() const { return samples_; }
+  // The sample at position floor(p / 100 x (samples - 1)) of the sorted samples (what
+  // std::nth_element at that position gives). Needs samples() > 0.
+  double percentile(double p) const {
+    const auto n = static_cast<double>(samples_);
+    const auto k = static_cast<std::size_t>(std::clamp(p / 100.0 * (n - 1.0), 0.0, n - 1.0));
+    std::size_t below = 0;  // samples in the bins before v
+    for (std::size_t v = 0; v < bins_.size(); ++v) {
+      below += bins_[v];
+      if (below > k) return static_cast<double>(v);
+    }
+    return static_cast<double>(bins_.size() - 1);
+  }
 
-float percentile(std::vector<float>& v, double p) {
-  const auto k = static_cast<std::ptrdiff_t>(std::clamp(
-      p / 100.0 * static_cast<double>(v.size() - 1), 0.0, static_cast<double>(v.size() - 1)));
-  std::nth_element(v.begin(), v.begin() + k, v.end());
-  return v[static_cast<std::size_t>(k)];
-}
+ private:
+  std::vector<std::uint32_t> bins_;
+  std::size_t samples_ = 0;
+};
 
 struct FieldStats {
   double median = 0, sigma = 1, top = 0;
@@ -199,11 +211,11 @@ cv::Mat infrared_to_8bit(const cv::Mat& infrared) {
   if (infrared.type() == CV_8UC1) return infrared;
   if (infrared.type() != CV_16UC1)
     throw std::invalid_argument("infrared_to_8bit: infrared must be CV_16UC1 or CV_8UC1");
-  std::vector<float> s = field_samples(infrared);
+  const FieldHistogram field(infrared);
   cv::Mat out(infrared.size(), CV_8UC1, cv::Scalar(0));
-  if (s.size() < 16) return out;
-  const double lo = percentile(s, 1.0);
-  const double hi = std::max(lo + 1.0, static_cast<double>(percentile(s, 99.9)));
+  if (field.samples() < 16) return out;
+  const double lo = field.percentile(1.0);
+  const double hi = std::max(lo + 1.0, field.percentile(99.9));
   const double gain = 254.0 / (hi - lo);
   infrared.convertTo(out, CV_8U, gain, 1.0 - lo * gain);
   cv::max(out, 1, out);

@@ -2,6 +2,7 @@
 // its errors, the train/eval split, and the PersonDetector on real frames and bad input.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
 #include <iostream>
 #include <opencv2/imgcodecs.hpp>
@@ -239,6 +240,42 @@ TEST(InfraredCandidates, TouchingPeopleGetABoxEach) {
   for (const auto& c : dt::infrared_candidates(ir, no_split))
     best = std::max(best, dt::intersection_over_union(c.box, left));
   EXPECT_LT(best, 0.6);
+}
+
+// The 8-bit frame of raw counts: the field's 1st and 99.9th percentiles (of a 1-in-16
+// subsample, by sorting here) stretched to 1..255, counts of 0 (outside the field) at 0.
+TEST(InfraredTo8bit, StretchesTheFieldsPercentilesAsSortingGivesThem) {
+  cv::RNG rng(11);
+  for (const int range : {3, 200, 4000, 60000}) {
+    cv::Mat counts(97, 131, CV_16UC1);
+    rng.fill(counts, cv::RNG::UNIFORM, 1000, 1000 + range);
+    counts(cv::Rect(0, 0, 40, 30)).setTo(0);  // outside the field
+    counts.at<std::uint16_t>(48, 64) = 65535;
+    std::vector<float> samples;
+    for (int y = 0; y < counts.rows; y += 4)
+      for (int x = 0; x < counts.cols; x += 4)
+        if (counts.at<std::uint16_t>(y, x) > 0) samples.push_back(counts.at<std::uint16_t>(y, x));
+    std::sort(samples.begin(), samples.end());
+    const auto at = [&](double p) {
+      const double n = static_cast<double>(samples.size());
+      return static_cast<double>(
+          samples[static_cast<std::size_t>(std::clamp(p / 100.0 * (n - 1.0), 0.0, n - 1.0))]);
+    };
+    const double lo = at(1.0);
+    const double hi = std::max(lo + 1.0, at(99.9));
+    const double gain = 254.0 / (hi - lo);
+    cv::Mat want;
+    counts.convertTo(want, CV_8U, gain, 1.0 - lo * gain);
+    cv::max(want, 1, want);
+    want.setTo(0, counts == 0);
+    const cv::Mat got = dt::infrared_to_8bit(counts);
+    ASSERT_EQ(got.type(), CV_8UC1);
+    EXPECT_EQ(cv::countNonZero(got != want), 0) << "counts over " << range;
+  }
+  // Fewer than 16 samples in the field: all 0.
+  cv::Mat sparse(16, 16, CV_16UC1, cv::Scalar(0));
+  sparse.at<std::uint16_t>(0, 0) = 500;
+  EXPECT_EQ(cv::countNonZero(dt::infrared_to_8bit(sparse)), 0);
 }
 
 // The mosaic's descriptors are each window's own (one compute() call per window), to the bit:
