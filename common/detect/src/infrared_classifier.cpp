@@ -253,9 +253,6 @@ class AreaSums {
     return (1 - fy) * ((1 - fx) * r0[x0] + fx * r0[x0 + 1]) +
            fy * ((1 - fx) * r1[x0] + fx * r1[x0 + 1]);
   }
-  double sum(double x0, double y0, double x1, double y1) const {
-    return at(x1, y1) - at(x0, y1) - at(x1, y0) + at(x0, y0);
-  }
   double sum(const cv::Rect& r) const {
     const int* top = integral_.ptr<int>(r.y);
     const int* bottom = integral_.ptr<int>(r.y + r.height);
@@ -268,18 +265,29 @@ class AreaSums {
     const double sx = static_cast<double>(rect.width) / size.width;
     const double sy = static_cast<double>(rect.height) / size.height;
     const double norm = 1.0 / (sx * sy);
+    // The integral at the cells' corners, each once (a corner is shared by up to four cells);
+    // a cell's sum is at(x1, y1) - at(x0, y1) - at(x1, y0) + at(x0, y0), in that order.
+    const int w = size.width + 1;
+    corners_.resize(static_cast<std::size_t>(w) * (size.height + 1));
+    for (int i = 0; i <= size.height; ++i) {
+      const double y = rect.y + i * sy;
+      for (int j = 0; j < w; ++j)
+        corners_[static_cast<std::size_t>(i * w + j)] = at(rect.x + j * sx, y);
+    }
     for (int i = 0; i < size.height; ++i) {
       std::uint8_t* row = out.ptr<std::uint8_t>(i);
-      const double y0 = rect.y + i * sy, y1 = rect.y + (i + 1) * sy;
+      const double* top = corners_.data() + static_cast<std::ptrdiff_t>(i) * w;
+      const double* bottom = top + w;
       for (int j = 0; j < size.width; ++j) {
-        const double x0 = rect.x + j * sx, x1 = rect.x + (j + 1) * sx;
-        row[j] = cv::saturate_cast<std::uint8_t>(sum(x0, y0, x1, y1) * norm);
+        const double cell = bottom[j + 1] - bottom[j] - top[j + 1] + top[j];
+        row[j] = cv::saturate_cast<std::uint8_t>(cell * norm);
       }
     }
   }
 
  private:
   cv::Mat integral_;
+  mutable std::vector<double> corners_;  // shrink's scratch
 };
 
 namespace {
