@@ -98,11 +98,9 @@ constexpr int kShapeFeatures = 10;
 const cv::Size kWindow(20, 20);
 constexpr double kMargin = 0.25;  // context around the box, in box sizes on each side
 
-cv::HOGDescriptor make_hog() {
-  return cv::HOGDescriptor(kWindow, cv::Size(10, 10), cv::Size(5, 5), cv::Size(5, 5), 9);
+int feature_count() {
+  return kShapeFeatures + static_cast<int>(classifier_hog().getDescriptorSize());
 }
-
-int feature_count() { return kShapeFeatures + static_cast<int>(make_hog().getDescriptorSize()); }
 
 cv::Rect grown(const cv::Rect& box, double margin) {
   const int mx = static_cast<int>(std::ceil(box.width * margin));
@@ -324,10 +322,6 @@ BoxStats box_stats(const cv::Mat& box) {
   return s;
 }
 
-}  // namespace
-
-namespace {
-
 constexpr int kMosaicColumns = 64;           // at most this many windows per row of the mosaic
 constexpr std::size_t kMosaicWindows = 128;  // candidate_features' windows per mosaic
 
@@ -341,6 +335,10 @@ int mosaic_columns(int windows) {
 }
 
 }  // namespace
+
+cv::HOGDescriptor classifier_hog() {
+  return cv::HOGDescriptor(kWindow, cv::Size(10, 10), cv::Size(5, 5), cv::Size(5, 5), 9);
+}
 
 HogMosaic::HogMosaic(const cv::HOGDescriptor& hog, int windows)
     : hog_(hog),
@@ -385,7 +383,7 @@ cv::Mat candidate_features(const cv::Mat& ir8, const std::vector<Candidate>& can
   cv::Mat features(static_cast<int>(candidates.size()), feature_count(), CV_32F, cv::Scalar(0));
   if (candidates.empty()) return features;
   const FieldStats f = field_stats(ir8, 99.9);
-  const cv::HOGDescriptor hog = make_hog();
+  const cv::HOGDescriptor hog = classifier_hog();
   const AreaSums sums(ir8);
   const cv::Rect image(0, 0, ir8.cols, ir8.rows);
   // The HOGs kMosaicWindows windows at a time: such a mosaic (62 kB, its gradients about

@@ -113,8 +113,7 @@ void BM_Components(benchmark::State& state) {
 // Counters: each way's ms per frame and opencv_over_ours, the ratio in the same run.
 void BM_CandidateHogs(benchmark::State& state) {
   const cv::Mat& ir8 = frame().eight_bit;
-  const cv::HOGDescriptor hog(cv::Size(20, 20), cv::Size(10, 10), cv::Size(5, 5), cv::Size(5, 5),
-                              9);
+  const cv::HOGDescriptor hog = detect::classifier_hog();
   std::vector<cv::Mat> windows;
   for (const detect::Candidate& c : detect::infrared_candidates(ir8)) {
     cv::Mat w;

@@ -70,6 +70,10 @@ std::vector<Candidate> infrared_candidates(const cv::Mat& ir8,
 // One CV_32F row of features per candidate (same order).
 cv::Mat candidate_features(const cv::Mat& ir8, const std::vector<Candidate>& candidates);
 
+// The HOG of candidate_features' windows (each candidate's box with its margin, shrunk to 20 x
+// 20 px).
+cv::HOGDescriptor classifier_hog();
+
 // The HOG descriptors of many 8-bit windows of one size in one cv::HOGDescriptor::compute call:
 // the windows are laid side by side in a mosaic, each in a 1-px BORDER_REFLECT_101 frame. The
 // frame gives each window's edge pixels the gradients compute() gives a window alone (it
