@@ -8,8 +8,7 @@
 namespace thermovis::pipeline {
 namespace {
 
-// The map of a camera onto `grid`, from its raw image binned by `bin` (bin x bin pixels
-// averaged: a raw pixel centre x is the binned image's (x + 0.5) / bin - 0.5).
+// The map of a camera onto `grid`, from its raw image binned by `bin` (rectify::bin_map).
 std::unique_ptr<fpga::FastRemapper> remapper(const camera::Rig& rig, const std::string& camera,
                                              const Eigen::Isometry3d& T_ref_rect,
                                              const camera::RectifiedCamera& grid, double distance_m,
@@ -17,13 +16,7 @@ std::unique_ptr<fpga::FastRemapper> remapper(const camera::Rig& rig, const std::
   const camera::RigCamera& cam = rig.camera(camera);
   cv::Mat map = rectify::build_map(cam, T_ref_rect, grid, distance_m);
   const cv::Size raw = cam.model->image_size();
-  if (bin > 1) {
-    map.forEach<cv::Vec2f>([bin](cv::Vec2f& p, const int*) {
-      if (p[0] == -1.0f && p[1] == -1.0f) return;  // no ray: stays the sentinel
-      p = cv::Vec2f((p[0] + 0.5f) / static_cast<float>(bin) - 0.5f,
-                    (p[1] + 0.5f) / static_cast<float>(bin) - 0.5f);
-    });
-  }
+  rectify::bin_map(map, bin);
   return std::make_unique<fpga::FastRemapper>(
       fpga::FixedPointMap::from_float(map, cv::Size(raw.width / bin, raw.height / bin)));
 }

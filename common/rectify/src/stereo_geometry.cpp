@@ -143,6 +143,15 @@ cv::Mat build_map(const camera::RigCamera& cam, const Eigen::Isometry3d& T_ref_r
   return map;
 }
 
+void bin_map(cv::Mat& map, int bin) {
+  if (bin <= 1) return;
+  map.forEach<cv::Vec2f>([bin](cv::Vec2f& p, const int*) {
+    if (p[0] == -1.0f && p[1] == -1.0f) return;  // no ray: stays the sentinel
+    p = cv::Vec2f((p[0] + 0.5f) / static_cast<float>(bin) - 0.5f,
+                  (p[1] + 0.5f) / static_cast<float>(bin) - 0.5f);
+  });
+}
+
 cv::Rect raw_box_on_grid(const camera::RigCamera& cam, const Eigen::Isometry3d& T_ref_rect,
                          const camera::RectifiedCamera& grid, double x_min, double y_min,
                          double x_max, double y_max) {

@@ -206,6 +206,7 @@ void FastRemapper::remap(const cv::Mat& source, cv::Mat& out, int first_row, int
   if (huge_pitch) compact = source.clone();
   const cv::Mat& src = huge_pitch ? compact : source;
   const auto step = static_cast<std::int32_t>(src.step[0]);
+  const std::uint8_t* source_end = src.ptr(src.rows - 1) + src.cols * src.elemSize();
 
   with_pixel_format(source.type(), [&]<typename Sample, int Channels>() {
     for (int v = first_row; v <= last_row; ++v) {
@@ -218,7 +219,7 @@ void FastRemapper::remap(const cv::Mat& source, cv::Mat& out, int first_row, int
             std::fill(row + run.begin * Channels, row + run.end * Channels, Sample{0});
             break;
           case RunKind::interior:
-            remap_interior<Sample, Channels>({src.data, step,
+            remap_interior<Sample, Channels>({src.data, step, source_end,
                                               entries_.data() + row_start + run.begin,
                                               row + run.begin * Channels, run.end - run.begin});
             break;

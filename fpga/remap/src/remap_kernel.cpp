@@ -20,6 +20,8 @@
 #include <hwy/highway.h>
 
 #include <hwy/cache_control.h>
+#include <algorithm>
+#include <cstddef>
 #include <cstring>
 
 #include "remap_kernel.hpp"
@@ -218,6 +220,116 @@ HWY_INLINE void remap_lanes(D d, const InteriorRun& run, int i) {
   }
 }
 
+#if HWY_TARGET != HWY_SCALAR
+// The 8-bit grey kernel without gathers. Each 128-bit block of the vector holds 8 output pixels
+// as int16 lanes; for each block, three 16-byte windows of the source (rows y..y+2 from column x,
+// where x is the block's first pixel's left neighbour and y the upper of its first and last
+// pixels' top rows) hold all four neighbours of every pixel of the block when its columns lie
+// within 15 px of the first and its top rows within one of y: a byte shuffle per window and
+// neighbour column (TableLookupBytesOr0) brings them into the lanes. On the rig's rectified
+// tables a grid row crosses source rows slowly and the source's scale is 0.5-1 px a pixel, so
+// nearly every block fits; a block that does not (a row turning within it, a steep or strongly
+// reduced map, the source's last rows) goes the gather way (remap_lanes).
+constexpr int kWindowBytes = 16;
+constexpr int kBlockPixels = 8;  // int16 lanes of a 128-bit block
+
+// A vector of bytes, each 128-bit block loaded from its own window (windows[b] for block b).
+template <class D8>
+HWY_INLINE hn::Vec<D8> load_windows(D8 d, const std::uint8_t* const* windows) {
+  if constexpr (hn::MaxLanes(D8()) > static_cast<std::size_t>(kWindowBytes)) {
+    const hn::Half<D8> dh;
+    constexpr std::size_t kLowerBlocks = hn::MaxLanes(D8()) / 2 / kWindowBytes;
+    return hn::Combine(d, load_windows(dh, windows + kLowerBlocks), load_windows(dh, windows));
+  } else {
+    return hn::LoadU(d, windows[0]);
+  }
+}
+
+// Lanes(du16) output pixels from pixel `i` of the run, or false (nothing written) when a block
+// does not fit its windows.
+template <class DU16>
+HWY_INLINE bool remap_grey_by_windows(DU16 du16, const InteriorRun& run, int i) {
+  constexpr std::size_t kBlocks = hn::MaxLanes(DU16()) / kBlockPixels;
+  const hn::RebindToSigned<DU16> di16;
+  const hn::Repartition<std::uint32_t, DU16> du32;
+  const hn::Repartition<std::uint8_t, DU16> du8;
+  const hn::Repartition<std::int32_t, DU16> di32;
+  const std::uint32_t* entries = run.entries + i;
+
+  // Each block's windows. An entry's integer parts carry one added pixel (pack_entry): the
+  // top-left neighbour of the block's first pixel is (x - 1, y - 1). The upper row of two
+  // entries is that of the smaller entry (y is in the high half).
+  const std::ptrdiff_t readable = run.source_end - run.source;
+  const std::uint8_t* windows[3][kBlocks];
+  for (std::size_t b = 0; b < kBlocks; ++b) {
+    const std::uint32_t first = entries[b * kBlockPixels];
+    const std::uint32_t last = entries[b * kBlockPixels + kBlockPixels - 1];
+    const std::ptrdiff_t x = static_cast<std::ptrdiff_t>(first & 0xffffu) >> kFractionBits;
+    const std::ptrdiff_t y =
+        static_cast<std::ptrdiff_t>(std::min(first, last) >> 16) >> kFractionBits;
+    const std::ptrdiff_t top = (y - 1) * run.step + (x - 1);
+    if (top + 2 * run.step + kWindowBytes > readable) return false;
+    for (std::ptrdiff_t r = 0; r < 3; ++r) windows[r][b] = run.source + top + r * run.step;
+  }
+
+  // The pixels' positions (x in the low, y in the high half of each entry), in pixel order.
+  const auto lower_entries = hn::BitCast(du16, hn::LoadU(du32, entries));
+  const auto upper_entries = hn::BitCast(du16, hn::LoadU(du32, entries + hn::Lanes(du32)));
+  const auto x = hn::ConcatEven(du16, upper_entries, lower_entries);
+  const auto y = hn::ConcatOdd(du16, upper_entries, lower_entries);
+  const auto x0 = hn::ShiftRight<kFractionBits>(x);
+  const auto y0 = hn::ShiftRight<kFractionBits>(y);
+  // Each pixel's left neighbour's column in its block's windows and its top row among them
+  // (Broadcast works per block); a column left of the block's first wraps above 15.
+  const auto column = hn::Sub(x0, hn::Broadcast<0>(x0));
+  const auto row = hn::Sub(y0, hn::Min(hn::Broadcast<0>(y0), hn::Broadcast<kBlockPixels - 1>(y0)));
+  if (!hn::AllFalse(du16, hn::Gt(column, hn::Set(du16, kWindowBytes - 2))) ||
+      !hn::AllFalse(du16, hn::Gt(row, hn::Set(du16, 1)))) {
+    return false;
+  }
+
+  // Shuffle indices as int16 lanes: the low byte picks the sample, the high byte (0x80) gives 0.
+  const auto zero_high = hn::Set(du16, 0x8000);
+  const auto left_index = hn::BitCast(du8, hn::Or(column, zero_high));
+  const auto right_index = hn::BitCast(du8, hn::Or(hn::Add(column, hn::Set(du16, 1)), zero_high));
+  hn::Vec<decltype(di16)> left[3], right[3];
+  for (int r = 0; r < 3; ++r) {
+    const auto window = load_windows(du8, windows[r]);
+    left[r] = hn::BitCast(di16, hn::TableLookupBytesOr0(window, left_index));
+    right[r] = hn::BitCast(di16, hn::TableLookupBytesOr0(window, right_index));
+  }
+  const auto second = hn::RebindMask(di16, hn::Eq(row, hn::Set(du16, 1)));
+  const auto fx = hn::BitCast(di16, hn::And(x, hn::Set(du16, kSubpixelSteps - 1)));
+  const auto fy = hn::BitCast(di16, hn::And(y, hn::Set(du16, kSubpixelSteps - 1)));
+  // 32 x the horizontal interpolation of each row (1/32 units, at most 8160: int16).
+  const auto interpolate = [&](int r) {
+    const auto l = hn::IfThenElse(second, left[r + 1], left[r]);
+    const auto rt = hn::IfThenElse(second, right[r + 1], right[r]);
+    return hn::Add(hn::ShiftLeft<5>(l), hn::Mul(hn::Sub(rt, l), fx));
+  };
+  const auto upper = interpolate(0);
+  const auto lower = interpolate(1);
+  // The vertical one as int16 pair products: (32 - fy) upper + fy lower, the model's sum in
+  // 1/1024 units. Interleave and the demotion below both work per 128-bit block (x86's pack,
+  // one block when emulated), so the pixels come back in order.
+  const auto wy0 = hn::Sub(hn::Set(di16, kSubpixelSteps), fy);
+  const auto sums = [&](auto pairs, auto weights) {
+    auto odd = hn::Zero(di32);
+    const auto even = hn::ReorderWidenMulAccumulate(di32, pairs, weights, hn::Zero(di32), odd);
+    const auto acc = hn::RearrangeToOddPlusEven(even, odd);
+    return hn::ShiftRight<10>(hn::Add(acc, hn::Set(di32, 512)));  // round half up
+  };
+  const auto first_half =
+      sums(hn::InterleaveLower(di16, upper, lower), hn::InterleaveLower(di16, wy0, fy));
+  const auto second_half =
+      sums(hn::InterleaveUpper(di16, upper, lower), hn::InterleaveUpper(di16, wy0, fy));
+  const auto samples = hn::ReorderDemote2To(di16, first_half, second_half);
+  const hn::Rebind<std::uint8_t, decltype(di16)> d_out;
+  hn::StoreU(hn::DemoteTo(d_out, samples), d_out, static_cast<std::uint8_t*>(run.out) + i);
+  return true;
+}
+#endif
+
 // How far ahead (output pixels) the kernel asks for the source lines it will read, and for
 // which of a vector's pixels. A row of the pipeline's grid walks a curve through the source
 // that changes source row every few pixels where it is steep, which the hardware prefetchers do
@@ -239,12 +351,39 @@ HWY_INLINE void prefetch_source_lines(D d, const InteriorRun& run, int i) {
   }
 }
 
+// The grey kernel's prefetch (remap_grey_by_windows): the lines of five source rows from the
+// top-left neighbour of the pixel kPrefetchPixels ahead, which also brings the rows the next
+// output rows will cross into (a grid row reads each source row it meets first, cold: the
+// bridge wrote it from another core). Measured with bench_remap_kernel's BM_OursColdSource
+// (the full grid's luma, a new source each time), median of 8: two rows 1.74-2.00 ms (as
+// many as without the hint), three 1.19-1.44, four 1.13-1.17, five 1.03.
+constexpr int kPrefetchWindowRows = 5;
+
+HWY_INLINE void prefetch_windows(const InteriorRun& run, int i) {
+  const std::uint32_t entry = run.entries[i];
+  const std::ptrdiff_t x = static_cast<std::ptrdiff_t>(entry & 0xffffu) >> kFractionBits;
+  const std::ptrdiff_t y = static_cast<std::ptrdiff_t>(entry >> 16) >> kFractionBits;
+  const std::uint8_t* top = run.source + (y - 1) * run.step + (x - 1);
+  for (int r = 0; r < kPrefetchWindowRows; ++r) hwy::Prefetch(top + r * run.step);
+}
+
 template <typename Sample, int Channels>
 void remap_run(const InteriorRun& run) {
   constexpr int kPixelBytes = static_cast<int>(sizeof(Sample)) * Channels;
   const hn::ScalableTag<std::int32_t> d;
   const int lanes = static_cast<int>(hn::Lanes(d));
   int i = 0;
+#if HWY_TARGET != HWY_SCALAR
+  if constexpr (sizeof(Sample) == 1 && Channels == 1) {
+    const hn::ScalableTag<std::uint16_t> d16;
+    const int pixels = static_cast<int>(hn::Lanes(d16));  // a multiple of `lanes`
+    for (; i + pixels <= run.count; i += pixels) {
+      if (i + kPrefetchPixels < run.count) prefetch_windows(run, i + kPrefetchPixels);
+      if (remap_grey_by_windows(d16, run, i)) continue;
+      for (int k = 0; k < pixels; k += lanes) remap_lanes<Sample, Channels>(d, run, i + k);
+    }
+  }
+#endif
   for (; i + lanes <= run.count; i += lanes) {
     if (i + kPrefetchPixels + lanes <= run.count) {
       prefetch_source_lines<kPixelBytes>(d, run, i + kPrefetchPixels);

@@ -24,8 +24,11 @@ inline int entry_y_q5(std::uint32_t entry) { return static_cast<int>(entry >> 16
 
 // One run of `count` consecutive output pixels of one row.
 struct InteriorRun {
-  const std::uint8_t* source;    // the source's first row
-  std::int32_t step;             // source row pitch, bytes (the kernel's offsets are int32)
+  const std::uint8_t* source;  // the source's first row
+  std::int32_t step;           // source row pitch, bytes (the kernel's offsets are int32)
+  // One past the source's last byte: its last row's end (a view's parent may go on, but
+  // nothing beyond this is read).
+  const std::uint8_t* source_end;
   const std::uint32_t* entries;  // pack_entry(x_q5, y_q5) per output pixel
   void* out;                     // the run's first output pixel
   int count;
@@ -33,7 +36,9 @@ struct InteriorRun {
 
 // Every read must lie inside the source rows, including the 8-bit grey path's 4-byte and the
 // BGR path's 8-byte loads (2 bytes beyond the right neighbour): the table marks a pixel
-// interior only then (on the source's last row, x0 + 3 < width).
+// interior only then (on the source's last row, x0 + 3 < width). The 8-bit grey kernel's
+// windows (16 bytes of three rows per 8 pixels) are taken only where they end before
+// source_end.
 void remap_interior_8uc1(const InteriorRun& run);
 void remap_interior_8uc3(const InteriorRun& run);
 void remap_interior_16uc1(const InteriorRun& run);

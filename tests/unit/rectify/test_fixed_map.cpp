@@ -3,12 +3,17 @@
 #include <gtest/gtest.h>
 
 #include <hwy/targets.h>
+#include <sys/mman.h>
+#include <unistd.h>
+
 #include <cmath>
+#include <cstdint>
 #include <fstream>
 #include <map>
 #include <opencv2/core.hpp>
 #include <opencv2/core/utility.hpp>
 #include <random>
+#include <stdexcept>
 #include <string>
 
 #include "thermovis/fpga/fixed_map.hpp"
@@ -211,7 +216,9 @@ void expect_bit_exact_on_every_target(const cv::Mat& image, const fpga::FixedPoi
 
 // The rig's real tables: the left cameras onto the visible pair's grid at the pipeline's scale
 // (0.5: 936x566; wide angle, with invalid entries beyond the field of view and a border where
-// the source ends), and the paper's elliptical correction (full image, invalid corners).
+// the source ends), the paper's elliptical correction (full image, invalid corners), and the
+// visible camera binned by 2 onto the pipeline's grid (what rectify-fuse remaps: about a source
+// pixel per grid pixel, the grey kernel's windows).
 struct RigTable {
   std::string name;
   fpga::FixedPointMap table;
@@ -223,17 +230,19 @@ const RigTable& rig_table(int index) {
   const auto& rig = paper_rig();
   const bool infrared = index % 2 == 1;
   const std::string camera = infrared ? rig.infrared.left : rig.visible.left;
-  const cv::Size source = rig.camera(camera).model->image_size();
+  const int bin = index == 4 ? 2 : 1;
+  const cv::Size source = rig.camera(camera).model->image_size() / bin;
   RigTable t;
-  if (index < 2) {
+  if (index < 2 || index == 4) {
     const auto grid = camera::scaled(
         rectify::default_pair_grid(rig, rig.visible, camera::RectifiedProjection::equirectangular),
         0.5);
     const auto geometry = rectify::make_stereo_geometry(rig, rig.visible, grid);
-    t.name = camera + " rectified";
-    t.table = fpga::FixedPointMap::from_float(
-        rectify::build_map(rig.camera(camera), geometry.T_ref_left_rect, geometry.grid, 0.0),
-        source);
+    t.name = camera + (bin > 1 ? " binned rectified" : " rectified");
+    cv::Mat map =
+        rectify::build_map(rig.camera(camera), geometry.T_ref_left_rect, geometry.grid, 0.0);
+    rectify::bin_map(map, bin);
+    t.table = fpga::FixedPointMap::from_float(map, source);
   } else {
     t.name = camera + " elliptical";
     t.table = fpga::FixedPointMap::from_float(
@@ -268,7 +277,7 @@ TEST_P(FastRemapOnRigTables, IsBitIdenticalToTheModel) {
   // The tables hold what the border path needs (pixels whose 2x2 neighbourhood straddles the
   // source's edge), the rectified ones also entries that sample nothing.
   ASSERT_GT(straddling_entries(t.table), 0) << t.name;
-  if (index < 2) {
+  if (index < 2 || index == 4) {
     ASSERT_EQ(t.table.size(), cv::Size(936, 566)) << t.name;
     ASSERT_LT(t.table.valid_entries(), static_cast<std::size_t>(t.table.size().area())) << t.name;
   }
@@ -280,13 +289,13 @@ TEST_P(FastRemapOnRigTables, IsBitIdenticalToTheModel) {
 std::string rig_table_test_name(
     const ::testing::TestParamInfo<FastRemapOnRigTables::ParamType>& param_info) {
   static const char* names[] = {"VisibleRectified", "InfraredRectified", "VisibleElliptical",
-                                "InfraredElliptical"};
+                                "InfraredElliptical", "VisibleBinnedRectified"};
   return std::string(names[std::get<0>(param_info.param)]) + "_" +
          type_label(std::get<1>(param_info.param));
 }
 
 INSTANTIATE_TEST_SUITE_P(PaperRig, FastRemapOnRigTables,
-                         ::testing::Combine(::testing::Values(0, 1, 2, 3),
+                         ::testing::Combine(::testing::Values(0, 1, 2, 3, 4),
                                             ::testing::Values(CV_8UC1, CV_8UC3, CV_16UC1)),
                          rig_table_test_name);
 
@@ -349,6 +358,89 @@ TEST(FastRemap, LongInteriorRunsWithOddWidthsAreBitExact) {
     for (int type : {CV_8UC1, CV_8UC3, CV_16UC1}) {
       expect_bit_exact_on_every_target(random_image(source, type, type_max(type), 7), table,
                                        std::to_string(width) + " px " + type_label(type));
+    }
+  }
+}
+
+// A smooth map: x = x0 + scale u, rows climbing by `slope` a pixel and bent by `bend` (a
+// parabola whose top is at column `top`), v adding `row_step` source rows.
+cv::Mat smooth_map(cv::Size out, float x0, float y0, float scale, float slope, float bend,
+                   float top, float row_step) {
+  cv::Mat map(out, CV_32FC2);
+  for (int v = 0; v < out.height; ++v) {
+    for (int u = 0; u < out.width; ++u) {
+      const float du = static_cast<float>(u) - top;
+      map.at<cv::Vec2f>(v, u) = {
+          x0 + scale * static_cast<float>(u),
+          y0 + row_step * static_cast<float>(v) + slope * static_cast<float>(u) + bend * du * du};
+    }
+  }
+  return map;
+}
+
+// A grey image whose last byte is the last before an unreadable page: a read past the image's
+// end faults instead of passing unnoticed.
+class ImageBeforeGuardPage {
+ public:
+  ImageBeforeGuardPage(cv::Size size, unsigned seed) {
+    page_ = static_cast<std::size_t>(sysconf(_SC_PAGESIZE));
+    const std::size_t bytes = static_cast<std::size_t>(size.area());
+    length_ = (bytes + page_ - 1) / page_ * page_ + page_;
+    void* memory =
+        mmap(nullptr, length_, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    if (memory == MAP_FAILED) throw std::runtime_error("mmap failed");
+    base_ = static_cast<std::uint8_t*>(memory);
+    if (mprotect(base_ + length_ - page_, page_, PROT_NONE) != 0)
+      throw std::runtime_error("mprotect failed");
+    image_ = cv::Mat(size, CV_8UC1, base_ + length_ - page_ - bytes);
+    random_image(size, CV_8UC1, 255, seed).copyTo(image_);
+  }
+  ~ImageBeforeGuardPage() { munmap(base_, length_); }
+  ImageBeforeGuardPage(const ImageBeforeGuardPage&) = delete;
+  ImageBeforeGuardPage& operator=(const ImageBeforeGuardPage&) = delete;
+  const cv::Mat& image() const { return image_; }
+
+ private:
+  std::size_t page_ = 0, length_ = 0;
+  std::uint8_t* base_ = nullptr;
+  cv::Mat image_;
+};
+
+TEST(FastRemap, SmoothGreyMapsOfEveryScaleAndRowSlopeAreBitExact) {
+  // The 8-bit grey kernel's windows (16 bytes of three source rows per 8 pixels) hold a block
+  // whose columns lie within 15 px and whose rows within one of each other; the others go the
+  // gather way. Scales from 0.5 to 2.2 source px a pixel (windows that fit, and that do not),
+  // rows climbing and falling by up to 0.3 px a pixel or turning inside a block, maps reaching
+  // the source's last row and right edge (where a window would read past the image's end), in
+  // a continuous image that ends before an unreadable page and in a view of a larger one.
+  const cv::Mat parent = random_image({260, 150}, CV_8UC1, 255, 11);
+  const cv::Size source(233, 121);
+  const ImageBeforeGuardPage guarded(source, 12);
+  const std::vector<cv::Mat> images = {guarded.image(),
+                                       parent(cv::Rect(9, 13, source.width, source.height))};
+  const cv::Size out(101, 23);
+  for (const float scale : {0.5f, 0.93f, 1.0f, 1.7f, 1.9f, 2.2f}) {
+    for (const float slope : {0.0f, 0.05f, -0.05f, 0.3f, -0.3f}) {
+      for (const float bend : {0.0f, 0.004f, -0.004f}) {
+        // Ending exactly on the last row and column (the bottom-right map), and in the middle.
+        const float width = scale * static_cast<float>(out.width - 1);
+        const float rise = slope * static_cast<float>(out.width - 1);
+        for (const bool at_end : {false, true}) {
+          const float x0 = at_end ? static_cast<float>(source.width) - 1.02f - width : 3.4f;
+          const float y_end = static_cast<float>(source.height) - 1.01f;
+          const float y0 =
+              at_end ? y_end - 22.0f * 1.5f - std::max(0.0f, rise) - std::abs(bend) * 60.0f * 60.0f
+                     : 40.3f - std::min(0.0f, rise);
+          const auto table = fpga::FixedPointMap::from_float(
+              smooth_map(out, x0, y0, scale, slope, bend, 37.5f, 1.5f), source);
+          for (std::size_t k = 0; k < images.size(); ++k) {
+            expect_bit_exact_on_every_target(
+                images[k], table,
+                "scale " + std::to_string(scale) + " slope " + std::to_string(slope) + " bend " +
+                    std::to_string(bend) + (at_end ? " at the end" : "") + (k ? " (view)" : ""));
+          }
+        }
+      }
     }
   }
 }

@@ -54,6 +54,10 @@ cv::Mat build_map(const camera::RigCamera& camera, const Eigen::Isometry3d& T_re
                   const camera::RectifiedCamera& grid, double registration_distance_m = 0.0,
                   cv::Rect roi = {});
 
+// `map` (build_map's) made for the camera's image binned by `bin` (bin x bin pixels averaged):
+// a raw pixel centre x is the binned image's (x + 0.5) / bin - 0.5; (-1, -1) entries stay.
+void bin_map(cv::Mat& map, int bin);
+
 // A box of a raw image of `camera` ([x_min, y_min, x_max, y_max] px) on `grid` seen from the
 // rectified frame T_ref_rect: the bounding box of its border's rays, rotated into that frame (at
 // infinity). Empty when none reaches the grid.
