@@ -222,16 +222,18 @@ HWY_INLINE void remap_lanes(D d, const InteriorRun& run, int i) {
 
 #if HWY_TARGET != HWY_SCALAR
 // The 8-bit grey kernel without gathers. Each 128-bit block of the vector holds 8 output pixels
-// as int16 lanes; for each block, three 16-byte windows of the source (rows y..y+2 from column x,
-// where x is the block's first pixel's left neighbour and y the upper of its first and last
-// pixels' top rows) hold all four neighbours of every pixel of the block when its columns lie
-// within 15 px of the first and its top rows within one of y: a byte shuffle per window and
+// as int16 lanes; for each block, three or four 16-byte windows of the source (rows y.. from
+// column x, where x is the block's first pixel's left neighbour and y the upper of its first and
+// last pixels' top rows) hold all four neighbours of every pixel of the block when its columns
+// lie within 15 px of the first and its top rows within two of y: a byte shuffle per window and
 // neighbour column (TableLookupBytesOr0) brings them into the lanes. On the rig's rectified
-// tables a grid row crosses source rows slowly and the source's scale is 0.5-1 px a pixel, so
-// nearly every block fits; a block that does not (a row turning within it, a steep or strongly
-// reduced map, the source's last rows) goes the gather way (remap_lanes).
+// tables a grid row crosses source rows slowly (up to about two rows in 8 px near the corners)
+// and the source's scale is 0.5-1 px a pixel, so nearly every block fits; a vector with a block
+// that does not (a row turning within it, a steep or strongly reduced map, the source's last
+// bytes) goes the gather way (remap_lanes).
 constexpr int kWindowBytes = 16;
 constexpr int kBlockPixels = 8;  // int16 lanes of a 128-bit block
+constexpr int kMaxWindowRows = 4;
 
 // A vector of bytes, each 128-bit block loaded from its own window (windows[b] for block b).
 template <class D8>
@@ -245,66 +247,39 @@ HWY_INLINE hn::Vec<D8> load_windows(D8 d, const std::uint8_t* const* windows) {
   }
 }
 
-// Lanes(du16) output pixels from pixel `i` of the run, or false (nothing written) when a block
-// does not fit its windows.
-template <class DU16>
-HWY_INLINE bool remap_grey_by_windows(DU16 du16, const InteriorRun& run, int i) {
-  constexpr std::size_t kBlocks = hn::MaxLanes(DU16()) / kBlockPixels;
+// The samples of pixels i.. from kRows windows per block: x, y their positions (entries'
+// halves), column and row each pixel's top-left neighbour in its block's windows.
+template <int kRows, class DU16, class V = hn::Vec<DU16>>
+HWY_INLINE void sample_windows(
+    DU16 du16, const InteriorRun& run, int i,
+    const std::uint8_t* const (*windows)[hn::MaxLanes(DU16()) / kBlockPixels], V x, V y, V column,
+    V row) {
   const hn::RebindToSigned<DU16> di16;
-  const hn::Repartition<std::uint32_t, DU16> du32;
   const hn::Repartition<std::uint8_t, DU16> du8;
   const hn::Repartition<std::int32_t, DU16> di32;
-  const std::uint32_t* entries = run.entries + i;
-
-  // Each block's windows. An entry's integer parts carry one added pixel (pack_entry): the
-  // top-left neighbour of the block's first pixel is (x - 1, y - 1). The upper row of two
-  // entries is that of the smaller entry (y is in the high half).
-  const std::ptrdiff_t readable = run.source_end - run.source;
-  const std::uint8_t* windows[3][kBlocks];
-  for (std::size_t b = 0; b < kBlocks; ++b) {
-    const std::uint32_t first = entries[b * kBlockPixels];
-    const std::uint32_t last = entries[b * kBlockPixels + kBlockPixels - 1];
-    const std::ptrdiff_t x = static_cast<std::ptrdiff_t>(first & 0xffffu) >> kFractionBits;
-    const std::ptrdiff_t y =
-        static_cast<std::ptrdiff_t>(std::min(first, last) >> 16) >> kFractionBits;
-    const std::ptrdiff_t top = (y - 1) * run.step + (x - 1);
-    if (top + 2 * run.step + kWindowBytes > readable) return false;
-    for (std::ptrdiff_t r = 0; r < 3; ++r) windows[r][b] = run.source + top + r * run.step;
-  }
-
-  // The pixels' positions (x in the low, y in the high half of each entry), in pixel order.
-  const auto lower_entries = hn::BitCast(du16, hn::LoadU(du32, entries));
-  const auto upper_entries = hn::BitCast(du16, hn::LoadU(du32, entries + hn::Lanes(du32)));
-  const auto x = hn::ConcatEven(du16, upper_entries, lower_entries);
-  const auto y = hn::ConcatOdd(du16, upper_entries, lower_entries);
-  const auto x0 = hn::ShiftRight<kFractionBits>(x);
-  const auto y0 = hn::ShiftRight<kFractionBits>(y);
-  // Each pixel's left neighbour's column in its block's windows and its top row among them
-  // (Broadcast works per block); a column left of the block's first wraps above 15.
-  const auto column = hn::Sub(x0, hn::Broadcast<0>(x0));
-  const auto row = hn::Sub(y0, hn::Min(hn::Broadcast<0>(y0), hn::Broadcast<kBlockPixels - 1>(y0)));
-  if (!hn::AllFalse(du16, hn::Gt(column, hn::Set(du16, kWindowBytes - 2))) ||
-      !hn::AllFalse(du16, hn::Gt(row, hn::Set(du16, 1)))) {
-    return false;
-  }
-
   // Shuffle indices as int16 lanes: the low byte picks the sample, the high byte (0x80) gives 0.
   const auto zero_high = hn::Set(du16, 0x8000);
   const auto left_index = hn::BitCast(du8, hn::Or(column, zero_high));
   const auto right_index = hn::BitCast(du8, hn::Or(hn::Add(column, hn::Set(du16, 1)), zero_high));
-  hn::Vec<decltype(di16)> left[3], right[3];
-  for (int r = 0; r < 3; ++r) {
+  hn::Vec<decltype(di16)> left[kRows], right[kRows];
+  for (int r = 0; r < kRows; ++r) {
     const auto window = load_windows(du8, windows[r]);
     left[r] = hn::BitCast(di16, hn::TableLookupBytesOr0(window, left_index));
     right[r] = hn::BitCast(di16, hn::TableLookupBytesOr0(window, right_index));
   }
-  const auto second = hn::RebindMask(di16, hn::Eq(row, hn::Set(du16, 1)));
   const auto fx = hn::BitCast(di16, hn::And(x, hn::Set(du16, kSubpixelSteps - 1)));
   const auto fy = hn::BitCast(di16, hn::And(y, hn::Set(du16, kSubpixelSteps - 1)));
-  // 32 x the horizontal interpolation of each row (1/32 units, at most 8160: int16).
-  const auto interpolate = [&](int r) {
-    const auto l = hn::IfThenElse(second, left[r + 1], left[r]);
-    const auto rt = hn::IfThenElse(second, right[r + 1], right[r]);
+  // 32 x the horizontal interpolation of each pixel's row `below` rows under its top row (1/32
+  // units, at most 8160: int16).
+  const auto interpolate = [&](int below) {
+    auto l = left[below];
+    auto rt = right[below];
+    for (int r = 1; r + 1 < kRows; ++r) {
+      const auto on =
+          hn::RebindMask(di16, hn::Eq(row, hn::Set(du16, static_cast<std::uint16_t>(r))));
+      l = hn::IfThenElse(on, left[r + below], l);
+      rt = hn::IfThenElse(on, right[r + below], rt);
+    }
     return hn::Add(hn::ShiftLeft<5>(l), hn::Mul(hn::Sub(rt, l), fx));
   };
   const auto upper = interpolate(0);
@@ -326,6 +301,53 @@ HWY_INLINE bool remap_grey_by_windows(DU16 du16, const InteriorRun& run, int i) 
   const auto samples = hn::ReorderDemote2To(di16, first_half, second_half);
   const hn::Rebind<std::uint8_t, decltype(di16)> d_out;
   hn::StoreU(hn::DemoteTo(d_out, samples), d_out, static_cast<std::uint8_t*>(run.out) + i);
+}
+
+// Lanes(du16) output pixels from pixel `i` of the run, or false (nothing written) when a block
+// does not fit its windows.
+template <class DU16>
+HWY_INLINE bool remap_grey_by_windows(DU16 du16, const InteriorRun& run, int i) {
+  constexpr std::size_t kBlocks = hn::MaxLanes(DU16()) / kBlockPixels;
+  const hn::Repartition<std::uint32_t, DU16> du32;
+  const std::uint32_t* entries = run.entries + i;
+
+  // The pixels' positions (x in the low, y in the high half of each entry), in pixel order.
+  const auto lower_entries = hn::BitCast(du16, hn::LoadU(du32, entries));
+  const auto upper_entries = hn::BitCast(du16, hn::LoadU(du32, entries + hn::Lanes(du32)));
+  const auto x = hn::ConcatEven(du16, upper_entries, lower_entries);
+  const auto y = hn::ConcatOdd(du16, upper_entries, lower_entries);
+  const auto x0 = hn::ShiftRight<kFractionBits>(x);
+  const auto y0 = hn::ShiftRight<kFractionBits>(y);
+  // Each pixel's left neighbour's column in its block's windows and its top row among them
+  // (Broadcast works per block); a column left of the block's first wraps above 15.
+  const auto column = hn::Sub(x0, hn::Broadcast<0>(x0));
+  const auto row = hn::Sub(y0, hn::Min(hn::Broadcast<0>(y0), hn::Broadcast<kBlockPixels - 1>(y0)));
+  if (!hn::AllFalse(du16, hn::Gt(column, hn::Set(du16, kWindowBytes - 2))) ||
+      !hn::AllFalse(du16, hn::Gt(row, hn::Set(du16, kMaxWindowRows - 2)))) {
+    return false;
+  }
+  const int rows = hn::AllFalse(du16, hn::Eq(row, hn::Set(du16, 2))) ? 3 : 4;
+
+  // Each block's windows. An entry's integer parts carry one added pixel (pack_entry): the
+  // top-left neighbour of the block's first pixel is (x - 1, y - 1). The upper row of two
+  // entries is that of the smaller entry (y is in the high half).
+  const std::ptrdiff_t readable = run.source_end - run.source;
+  const std::uint8_t* windows[kMaxWindowRows][kBlocks];
+  for (std::size_t b = 0; b < kBlocks; ++b) {
+    const std::uint32_t first = entries[b * kBlockPixels];
+    const std::uint32_t last = entries[b * kBlockPixels + kBlockPixels - 1];
+    const std::ptrdiff_t x_first = static_cast<std::ptrdiff_t>(first & 0xffffu) >> kFractionBits;
+    const std::ptrdiff_t y_upper =
+        static_cast<std::ptrdiff_t>(std::min(first, last) >> 16) >> kFractionBits;
+    const std::ptrdiff_t top = (y_upper - 1) * run.step + (x_first - 1);
+    if (top + (rows - 1) * run.step + kWindowBytes > readable) return false;
+    for (int r = 0; r < rows; ++r) windows[r][b] = run.source + top + r * run.step;
+  }
+  if (rows == 3) {
+    sample_windows<3>(du16, run, i, windows, x, y, column, row);
+  } else {
+    sample_windows<4>(du16, run, i, windows, x, y, column, row);
+  }
   return true;
 }
 #endif
