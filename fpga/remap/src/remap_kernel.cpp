@@ -221,18 +221,18 @@ HWY_INLINE void remap_lanes(D d, const InteriorRun& run, int i) {
 }
 
 #if HWY_TARGET != HWY_SCALAR
-// The 8-bit grey kernel without gathers. Each 128-bit block of the vector holds 8 output pixels
-// as int16 lanes; for each block, three or four 16-byte windows of the source (rows y.. from
-// column x, where x is the block's first pixel's left neighbour and y the upper of its first and
-// last pixels' top rows) hold all four neighbours of every pixel of the block when its columns
-// lie within 15 px of the first and its top rows within two of y: a byte shuffle per window and
+// The grey kernels without gathers. Each 128-bit block of the vector holds 8 output pixels (8-bit
+// samples, as int16 lanes) or 4 (16-bit samples, int32 lanes); for each block, three or four
+// 16-byte windows of the source (rows y.. from column x, where x is the block's first pixel's
+// left neighbour and y the upper of its first and last pixels' top rows) hold all four
+// neighbours of every pixel of the block when its left neighbours lie within the window's
+// samples but the last and its top rows within two of y: a byte shuffle per window and
 // neighbour column (TableLookupBytesOr0) brings them into the lanes. On the rig's rectified
 // tables a grid row crosses source rows slowly (up to about two rows in 8 px near the corners)
 // and the source's scale is 0.5-1 px a pixel, so nearly every block fits; a vector with a block
 // that does not (a row turning within it, a steep or strongly reduced map, the source's last
 // bytes) goes the gather way (remap_lanes).
 constexpr int kWindowBytes = 16;
-constexpr int kBlockPixels = 8;  // int16 lanes of a 128-bit block
 constexpr int kMaxWindowRows = 4;
 
 // A vector of bytes, each 128-bit block loaded from its own window (windows[b] for block b).
@@ -247,13 +247,61 @@ HWY_INLINE hn::Vec<D8> load_windows(D8 d, const std::uint8_t* const* windows) {
   }
 }
 
-// The samples of pixels i.. from kRows windows per block: x, y their positions (entries'
-// halves), column and row each pixel's top-left neighbour in its block's windows.
+// The window rows a vector's blocks need (3 or 4), or 0 when a pixel's left neighbour lies
+// beyond sample `last_column` of its block's windows or its top row more than two below the
+// block's upper: `column` and `row` per pixel, unsigned (left of or above the block's first
+// wraps high).
+template <class DU, class V = hn::Vec<DU>>
+HWY_INLINE int window_rows(DU du, V column, V row, int last_column) {
+  using T = hn::TFromD<DU>;
+  if (!hn::AllFalse(du, hn::Gt(column, hn::Set(du, static_cast<T>(last_column)))) ||
+      !hn::AllFalse(du, hn::Gt(row, hn::Set(du, static_cast<T>(kMaxWindowRows - 2))))) {
+    return 0;
+  }
+  return hn::AllFalse(du, hn::Eq(row, hn::Set(du, T{2}))) ? 3 : 4;
+}
+
+// Each block's `rows` windows (windows[r][b]: row r of block b), its first pixel's entry at
+// entries[b * kBlockPixels]; false when the last would end beyond the source. An entry's
+// integer parts carry one added pixel (pack_entry): the top-left neighbour of the block's first
+// pixel is (x - 1, y - 1). The upper row of two entries is that of the smaller (y is in the
+// high half).
+template <int kBlockPixels, int kPixelBytes, std::size_t kBlocks>
+HWY_INLINE bool block_windows(const InteriorRun& run, const std::uint32_t* entries, int rows,
+                              const std::uint8_t* (&windows)[kMaxWindowRows][kBlocks]) {
+  const std::ptrdiff_t readable = run.source_end - run.source;
+  for (std::size_t b = 0; b < kBlocks; ++b) {
+    const std::uint32_t first = entries[b * kBlockPixels];
+    const std::uint32_t last = entries[b * kBlockPixels + kBlockPixels - 1];
+    const std::ptrdiff_t x_first = static_cast<std::ptrdiff_t>(first & 0xffffu) >> kFractionBits;
+    const std::ptrdiff_t y_upper =
+        static_cast<std::ptrdiff_t>(std::min(first, last) >> 16) >> kFractionBits;
+    const std::ptrdiff_t top = (y_upper - 1) * run.step + (x_first - 1) * kPixelBytes;
+    if (top + (rows - 1) * run.step + kWindowBytes > readable) return false;
+    for (int r = 0; r < rows; ++r) windows[r][b] = run.source + top + r * run.step;
+  }
+  return true;
+}
+
+// Per lane, values[row + below] (row: the lane's top row among the windows, 0 .. kRows - 2).
+template <int kRows, class D, class VRow, class V = hn::Vec<D>>
+HWY_INLINE V from_row(D d, VRow row, const V* values, int below) {
+  const hn::DFromV<VRow> drow;
+  V v = values[below];
+  for (int r = 1; r + 1 < kRows; ++r) {
+    const auto on = hn::RebindMask(d, hn::Eq(row, hn::Set(drow, static_cast<hn::TFromV<VRow>>(r))));
+    v = hn::IfThenElse(on, values[r + below], v);
+  }
+  return v;
+}
+
+// 8-bit samples of Lanes(du16) pixels from pixel i, from kRows windows per block of 8: x, y
+// their positions (the entries' halves), column and row their top-left neighbours in their
+// block's windows.
 template <int kRows, class DU16, class V = hn::Vec<DU16>>
-HWY_INLINE void sample_windows(
-    DU16 du16, const InteriorRun& run, int i,
-    const std::uint8_t* const (*windows)[hn::MaxLanes(DU16()) / kBlockPixels], V x, V y, V column,
-    V row) {
+HWY_INLINE void sample_windows_8(DU16 du16, const InteriorRun& run, int i,
+                                 const std::uint8_t* const (*windows)[hn::MaxLanes(DU16()) / 8],
+                                 V x, V y, V column, V row) {
   const hn::RebindToSigned<DU16> di16;
   const hn::Repartition<std::uint8_t, DU16> du8;
   const hn::Repartition<std::int32_t, DU16> di32;
@@ -272,14 +320,8 @@ HWY_INLINE void sample_windows(
   // 32 x the horizontal interpolation of each pixel's row `below` rows under its top row (1/32
   // units, at most 8160: int16).
   const auto interpolate = [&](int below) {
-    auto l = left[below];
-    auto rt = right[below];
-    for (int r = 1; r + 1 < kRows; ++r) {
-      const auto on =
-          hn::RebindMask(di16, hn::Eq(row, hn::Set(du16, static_cast<std::uint16_t>(r))));
-      l = hn::IfThenElse(on, left[r + below], l);
-      rt = hn::IfThenElse(on, right[r + below], rt);
-    }
+    const auto l = from_row<kRows>(di16, row, left, below);
+    const auto rt = from_row<kRows>(di16, row, right, below);
     return hn::Add(hn::ShiftLeft<5>(l), hn::Mul(hn::Sub(rt, l), fx));
   };
   const auto upper = interpolate(0);
@@ -303,14 +345,52 @@ HWY_INLINE void sample_windows(
   hn::StoreU(hn::DemoteTo(d_out, samples), d_out, static_cast<std::uint8_t*>(run.out) + i);
 }
 
-// Lanes(du16) output pixels from pixel `i` of the run, or false (nothing written) when a block
-// does not fit its windows.
+// 16-bit samples of Lanes(di32) pixels from pixel i, from kRows windows per block of 4 (as
+// sample_windows_8, in int32 lanes: 32 x 32 x 65535 needs 27 bits).
+template <int kRows, class DI32, class V = hn::Vec<DI32>,
+          class VU = hn::Vec<hn::RebindToUnsigned<DI32>>>
+HWY_INLINE void sample_windows_16(DI32 di32, const InteriorRun& run, int i,
+                                  const std::uint8_t* const (*windows)[hn::MaxLanes(DI32()) / 4],
+                                  V x, V y, VU column, VU row) {
+  const hn::RebindToUnsigned<DI32> du32;
+  const hn::Repartition<std::uint8_t, DI32> du8;
+  // Shuffle indices per int32 lane: the left sample's two bytes (2 column, 2 column + 1), then
+  // two bytes 0x80 (0); the right sample's two bytes further.
+  const auto byte = hn::ShiftLeft<1>(column);
+  const auto left_bytes = hn::Or(hn::Or(byte, hn::ShiftLeft<8>(hn::Add(byte, hn::Set(du32, 1)))),
+                                 hn::Set(du32, 0x80800000u));
+  const auto left_index = hn::BitCast(du8, left_bytes);
+  const auto right_index = hn::BitCast(du8, hn::Add(left_bytes, hn::Set(du32, 0x0202u)));
+  V left[kRows], right[kRows];
+  for (int r = 0; r < kRows; ++r) {
+    const auto window = load_windows(du8, windows[r]);
+    left[r] = hn::BitCast(di32, hn::TableLookupBytesOr0(window, left_index));
+    right[r] = hn::BitCast(di32, hn::TableLookupBytesOr0(window, right_index));
+  }
+  const V fx = hn::And(x, hn::Set(di32, kSubpixelSteps - 1));
+  const V fy = hn::And(y, hn::Set(di32, kSubpixelSteps - 1));
+  const auto interpolate = [&](int below) {
+    const V l = from_row<kRows>(di32, row, left, below);
+    const V rt = from_row<kRows>(di32, row, right, below);
+    return hn::Add(hn::ShiftLeft<5>(l), hn::Mul(hn::Sub(rt, l), fx));
+  };
+  const V upper = interpolate(0);
+  const V lower = interpolate(1);
+  const V acc = hn::Add(hn::ShiftLeft<5>(upper), hn::Mul(hn::Sub(lower, upper), fy));
+  // Half to even, as remap_lanes.
+  const V odd = hn::And(hn::ShiftRight<10>(acc), hn::Set(di32, 1));
+  const V result = hn::ShiftRight<10>(hn::Add(hn::Add(acc, hn::Set(di32, 511)), odd));
+  const hn::Rebind<std::uint16_t, DI32> d_out;
+  hn::StoreU(hn::DemoteTo(d_out, result), d_out, static_cast<std::uint16_t*>(run.out) + i);
+}
+
+// Lanes(du16) output pixels of 8-bit grey from pixel `i` of the run, or false (nothing written)
+// when a block does not fit its windows.
 template <class DU16>
-HWY_INLINE bool remap_grey_by_windows(DU16 du16, const InteriorRun& run, int i) {
-  constexpr std::size_t kBlocks = hn::MaxLanes(DU16()) / kBlockPixels;
+HWY_INLINE bool remap_grey8_by_windows(DU16 du16, const InteriorRun& run, int i) {
+  constexpr int kBlockPixels = 8;
   const hn::Repartition<std::uint32_t, DU16> du32;
   const std::uint32_t* entries = run.entries + i;
-
   // The pixels' positions (x in the low, y in the high half of each entry), in pixel order.
   const auto lower_entries = hn::BitCast(du16, hn::LoadU(du32, entries));
   const auto upper_entries = hn::BitCast(du16, hn::LoadU(du32, entries + hn::Lanes(du32)));
@@ -318,35 +398,44 @@ HWY_INLINE bool remap_grey_by_windows(DU16 du16, const InteriorRun& run, int i) 
   const auto y = hn::ConcatOdd(du16, upper_entries, lower_entries);
   const auto x0 = hn::ShiftRight<kFractionBits>(x);
   const auto y0 = hn::ShiftRight<kFractionBits>(y);
-  // Each pixel's left neighbour's column in its block's windows and its top row among them
-  // (Broadcast works per block); a column left of the block's first wraps above 15.
+  // Broadcast works per block.
   const auto column = hn::Sub(x0, hn::Broadcast<0>(x0));
   const auto row = hn::Sub(y0, hn::Min(hn::Broadcast<0>(y0), hn::Broadcast<kBlockPixels - 1>(y0)));
-  if (!hn::AllFalse(du16, hn::Gt(column, hn::Set(du16, kWindowBytes - 2))) ||
-      !hn::AllFalse(du16, hn::Gt(row, hn::Set(du16, kMaxWindowRows - 2)))) {
-    return false;
-  }
-  const int rows = hn::AllFalse(du16, hn::Eq(row, hn::Set(du16, 2))) ? 3 : 4;
-
-  // Each block's windows. An entry's integer parts carry one added pixel (pack_entry): the
-  // top-left neighbour of the block's first pixel is (x - 1, y - 1). The upper row of two
-  // entries is that of the smaller entry (y is in the high half).
-  const std::ptrdiff_t readable = run.source_end - run.source;
+  const int rows = window_rows(du16, column, row, kWindowBytes - 2);
+  constexpr std::size_t kBlocks = hn::MaxLanes(DU16()) / kBlockPixels;
   const std::uint8_t* windows[kMaxWindowRows][kBlocks];
-  for (std::size_t b = 0; b < kBlocks; ++b) {
-    const std::uint32_t first = entries[b * kBlockPixels];
-    const std::uint32_t last = entries[b * kBlockPixels + kBlockPixels - 1];
-    const std::ptrdiff_t x_first = static_cast<std::ptrdiff_t>(first & 0xffffu) >> kFractionBits;
-    const std::ptrdiff_t y_upper =
-        static_cast<std::ptrdiff_t>(std::min(first, last) >> 16) >> kFractionBits;
-    const std::ptrdiff_t top = (y_upper - 1) * run.step + (x_first - 1);
-    if (top + (rows - 1) * run.step + kWindowBytes > readable) return false;
-    for (int r = 0; r < rows; ++r) windows[r][b] = run.source + top + r * run.step;
-  }
+  if (rows == 0 || !block_windows<kBlockPixels, 1>(run, entries, rows, windows)) return false;
   if (rows == 3) {
-    sample_windows<3>(du16, run, i, windows, x, y, column, row);
+    sample_windows_8<3>(du16, run, i, windows, x, y, column, row);
   } else {
-    sample_windows<4>(du16, run, i, windows, x, y, column, row);
+    sample_windows_8<4>(du16, run, i, windows, x, y, column, row);
+  }
+  return true;
+}
+
+// The same for 16-bit grey: Lanes(di32) pixels, blocks of 4.
+template <class DI32>
+HWY_INLINE bool remap_grey16_by_windows(DI32 di32, const InteriorRun& run, int i) {
+  constexpr int kBlockPixels = 4;
+  const hn::RebindToUnsigned<DI32> du32;
+  const std::uint32_t* entries = run.entries + i;
+  const auto packed = hn::LoadU(du32, entries);
+  const auto x = hn::And(packed, hn::Set(du32, 0xffffu));
+  const auto y = hn::ShiftRight<16>(packed);
+  const auto x0 = hn::ShiftRight<kFractionBits>(x);
+  const auto y0 = hn::ShiftRight<kFractionBits>(y);
+  const auto column = hn::Sub(x0, hn::Broadcast<0>(x0));
+  const auto row = hn::Sub(y0, hn::Min(hn::Broadcast<0>(y0), hn::Broadcast<kBlockPixels - 1>(y0)));
+  const int rows = window_rows(du32, column, row, kWindowBytes / 2 - 2);
+  constexpr std::size_t kBlocks = hn::MaxLanes(DI32()) / kBlockPixels;
+  const std::uint8_t* windows[kMaxWindowRows][kBlocks];
+  if (rows == 0 || !block_windows<kBlockPixels, 2>(run, entries, rows, windows)) return false;
+  const auto sx = hn::BitCast(di32, x);
+  const auto sy = hn::BitCast(di32, y);
+  if (rows == 3) {
+    sample_windows_16<3>(di32, run, i, windows, sx, sy, column, row);
+  } else {
+    sample_windows_16<4>(di32, run, i, windows, sx, sy, column, row);
   }
   return true;
 }
@@ -373,19 +462,20 @@ HWY_INLINE void prefetch_source_lines(D d, const InteriorRun& run, int i) {
   }
 }
 
-// The grey kernel's prefetch (remap_grey_by_windows): the lines of five source rows from the
-// top-left neighbour of the pixel kPrefetchPixels ahead, which also brings the rows the next
-// output rows will cross into (a grid row reads each source row it meets first, cold: the
-// bridge wrote it from another core). Measured with bench_remap_kernel's BM_OursColdSource
-// (the full grid's luma, a new source each time), median of 8: two rows 1.74-2.00 ms (as
-// many as without the hint), three 1.19-1.44, four 1.13-1.17, five 1.03.
+// The grey kernels' prefetch (remap_grey8_by_windows, remap_grey16_by_windows): the lines of five
+// source rows from the top-left neighbour of the pixel kPrefetchPixels ahead, which also brings the
+// rows the next output rows will cross into (a grid row reads each source row it meets first, cold:
+// the bridge wrote it from another core). Measured with bench_remap_kernel's BM_OursColdSource (the
+// full grid's luma, a new source each time), median of 8: two rows 1.74-2.00 ms (as many as without
+// the hint), three 1.19-1.44, four 1.13-1.17, five 1.03.
 constexpr int kPrefetchWindowRows = 5;
 
+template <int kPixelBytes>
 HWY_INLINE void prefetch_windows(const InteriorRun& run, int i) {
   const std::uint32_t entry = run.entries[i];
   const std::ptrdiff_t x = static_cast<std::ptrdiff_t>(entry & 0xffffu) >> kFractionBits;
   const std::ptrdiff_t y = static_cast<std::ptrdiff_t>(entry >> 16) >> kFractionBits;
-  const std::uint8_t* top = run.source + (y - 1) * run.step + (x - 1);
+  const std::uint8_t* top = run.source + (y - 1) * run.step + (x - 1) * kPixelBytes;
   for (int r = 0; r < kPrefetchWindowRows; ++r) hwy::Prefetch(top + r * run.step);
 }
 
@@ -400,9 +490,14 @@ void remap_run(const InteriorRun& run) {
     const hn::ScalableTag<std::uint16_t> d16;
     const int pixels = static_cast<int>(hn::Lanes(d16));  // a multiple of `lanes`
     for (; i + pixels <= run.count; i += pixels) {
-      if (i + kPrefetchPixels < run.count) prefetch_windows(run, i + kPrefetchPixels);
-      if (remap_grey_by_windows(d16, run, i)) continue;
+      if (i + kPrefetchPixels < run.count) prefetch_windows<1>(run, i + kPrefetchPixels);
+      if (remap_grey8_by_windows(d16, run, i)) continue;
       for (int k = 0; k < pixels; k += lanes) remap_lanes<Sample, Channels>(d, run, i + k);
+    }
+  } else if constexpr (sizeof(Sample) == 2 && Channels == 1) {
+    for (; i + lanes <= run.count; i += lanes) {
+      if (i + kPrefetchPixels < run.count) prefetch_windows<2>(run, i + kPrefetchPixels);
+      if (!remap_grey16_by_windows(d, run, i)) remap_lanes<Sample, Channels>(d, run, i);
     }
   }
 #endif
