@@ -30,7 +30,10 @@ struct SupervisorConfig {
 
 struct StageLatency {
   std::string stage;
-  double p50_ms = 0.0, p99_ms = 0.0, max_ms = 0.0;
+  double p50_ms = 0.0, p99_ms = 0.0, max_ms = 0.0;  // the stage's own time per frame
+  // When its output was ready, after the capture: where a frame's time goes along the chain
+  // (a stage's p50 above is its work and its waits; the gap to the one before is transport).
+  double done_p50_ms = 0.0, done_p99_ms = 0.0;
 };
 
 struct LatencySummary {
@@ -110,6 +113,7 @@ class Supervisor {
   std::map<std::string, Instance> instances_;  // by manifest name: the process being watched
   std::vector<double> latencies_ms_;
   std::map<Stage, std::vector<double>> stage_ms_;
+  std::map<Stage, std::vector<double>> stage_done_ms_;  // end_ns after the capture
   std::vector<LateFrame> late_;
   std::uint64_t first_seq_ = 0, last_seq_ = 0;
   std::size_t stale_segments_removed_ = 0;

@@ -538,6 +538,13 @@ TEST(Corrupt, SupervisorCountsBadTimingAndKeepsItOutOfTheLatencies) {
   EXPECT_TRUE(supervisor.late_frames().empty());
   ASSERT_EQ(s.stages.size(), 5u);
   for (const auto& stage : s.stages) EXPECT_DOUBLE_EQ(stage.max_ms, 2.0) << stage.stage;
+  // Each stage's output was ready 2 ms after the one before it, the first 2 ms after the capture.
+  const std::map<std::string, double> done_ms = {
+      {"bridge", 2.0}, {"rectify-fuse", 4.0}, {"detect", 6.0}, {"match", 8.0}, {"range", 10.0}};
+  for (const auto& stage : s.stages) {
+    EXPECT_DOUBLE_EQ(stage.done_p50_ms, done_ms.at(stage.stage)) << stage.stage;
+    EXPECT_DOUBLE_EQ(stage.done_p99_ms, done_ms.at(stage.stage)) << stage.stage;
+  }
 }
 
 // DEADLINE QoS misses come from the services' health, counted per service and topic (a late
