@@ -465,9 +465,9 @@ HWY_INLINE void prefetch_source_lines(D d, const InteriorRun& run, int i) {
 // The grey kernels' prefetch (remap_grey8_by_windows, remap_grey16_by_windows): the lines of five
 // source rows from the top-left neighbour of the pixel kPrefetchPixels ahead, which also brings the
 // rows the next output rows will cross into (a grid row reads each source row it meets first, cold:
-// the bridge wrote it from another core). Measured with bench_remap_kernel's BM_OursColdSource (the
-// full grid's luma, a new source each time), median of 8: two rows 1.74-2.00 ms (as many as without
-// the hint), three 1.19-1.44, four 1.13-1.17, five 1.03.
+// the bridge wrote it from another core). Measured on the full grid's luma (bench_remap_kernel's
+// case 5, a new source each call: 16 copies in turn), median of 8: two rows 1.74-2.00 ms (as many
+// as without the hint), three 1.19-1.44, four 1.13-1.17, five 1.03.
 constexpr int kPrefetchWindowRows = 5;
 
 template <int kPixelBytes>
