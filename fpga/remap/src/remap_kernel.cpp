@@ -295,6 +295,28 @@ HWY_INLINE V from_row(D d, VRow row, const V* values, int below) {
   return v;
 }
 
+// Each pixel's left and right neighbours on every window row (lanes of d, which the shuffle
+// indices fill), and 32 x the horizontal interpolation on its row `below` its top row.
+template <int kRows, class D, class V = hn::Vec<D>>
+struct WindowRows {
+  V left[kRows], right[kRows];
+
+  template <class D8, class Windows, class V8 = hn::Vec<D8>>
+  HWY_INLINE WindowRows(D d, D8 du8, const Windows& windows, V8 left_index, V8 right_index) {
+    for (int r = 0; r < kRows; ++r) {
+      const V8 window = load_windows(du8, windows[r]);
+      left[r] = hn::BitCast(d, hn::TableLookupBytesOr0(window, left_index));
+      right[r] = hn::BitCast(d, hn::TableLookupBytesOr0(window, right_index));
+    }
+  }
+  template <class VRow>
+  HWY_INLINE V interpolated(D d, VRow row, V fx, int below) const {
+    const V l = from_row<kRows>(d, row, left, below);
+    const V r = from_row<kRows>(d, row, right, below);
+    return hn::Add(hn::ShiftLeft<5>(l), hn::Mul(hn::Sub(r, l), fx));
+  }
+};
+
 // 8-bit samples of Lanes(du16) pixels from pixel i, from kRows windows per block of 8: x, y
 // their positions (the entries' halves), column and row their top-left neighbours in their
 // block's windows.
@@ -309,23 +331,12 @@ HWY_INLINE void sample_windows_8(DU16 du16, const InteriorRun& run, int i,
   const auto zero_high = hn::Set(du16, 0x8000);
   const auto left_index = hn::BitCast(du8, hn::Or(column, zero_high));
   const auto right_index = hn::BitCast(du8, hn::Or(hn::Add(column, hn::Set(du16, 1)), zero_high));
-  hn::Vec<decltype(di16)> left[kRows], right[kRows];
-  for (int r = 0; r < kRows; ++r) {
-    const auto window = load_windows(du8, windows[r]);
-    left[r] = hn::BitCast(di16, hn::TableLookupBytesOr0(window, left_index));
-    right[r] = hn::BitCast(di16, hn::TableLookupBytesOr0(window, right_index));
-  }
+  const WindowRows<kRows, decltype(di16)> rows(di16, du8, windows, left_index, right_index);
   const auto fx = hn::BitCast(di16, hn::And(x, hn::Set(du16, kSubpixelSteps - 1)));
   const auto fy = hn::BitCast(di16, hn::And(y, hn::Set(du16, kSubpixelSteps - 1)));
-  // 32 x the horizontal interpolation of each pixel's row `below` rows under its top row (1/32
-  // units, at most 8160: int16).
-  const auto interpolate = [&](int below) {
-    const auto l = from_row<kRows>(di16, row, left, below);
-    const auto rt = from_row<kRows>(di16, row, right, below);
-    return hn::Add(hn::ShiftLeft<5>(l), hn::Mul(hn::Sub(rt, l), fx));
-  };
-  const auto upper = interpolate(0);
-  const auto lower = interpolate(1);
+  // 1/32 units, at most 8160: int16.
+  const auto upper = rows.interpolated(di16, row, fx, 0);
+  const auto lower = rows.interpolated(di16, row, fx, 1);
   // The vertical one as int16 pair products: (32 - fy) upper + fy lower, the model's sum in
   // 1/1024 units. Interleave and the demotion below both work per 128-bit block (x86's pack,
   // one block when emulated), so the pixels come back in order.
@@ -361,21 +372,11 @@ HWY_INLINE void sample_windows_16(DI32 di32, const InteriorRun& run, int i,
                                  hn::Set(du32, 0x80800000u));
   const auto left_index = hn::BitCast(du8, left_bytes);
   const auto right_index = hn::BitCast(du8, hn::Add(left_bytes, hn::Set(du32, 0x0202u)));
-  V left[kRows], right[kRows];
-  for (int r = 0; r < kRows; ++r) {
-    const auto window = load_windows(du8, windows[r]);
-    left[r] = hn::BitCast(di32, hn::TableLookupBytesOr0(window, left_index));
-    right[r] = hn::BitCast(di32, hn::TableLookupBytesOr0(window, right_index));
-  }
+  const WindowRows<kRows, DI32> rows(di32, du8, windows, left_index, right_index);
   const V fx = hn::And(x, hn::Set(di32, kSubpixelSteps - 1));
   const V fy = hn::And(y, hn::Set(di32, kSubpixelSteps - 1));
-  const auto interpolate = [&](int below) {
-    const V l = from_row<kRows>(di32, row, left, below);
-    const V rt = from_row<kRows>(di32, row, right, below);
-    return hn::Add(hn::ShiftLeft<5>(l), hn::Mul(hn::Sub(rt, l), fx));
-  };
-  const V upper = interpolate(0);
-  const V lower = interpolate(1);
+  const V upper = rows.interpolated(di32, row, fx, 0);
+  const V lower = rows.interpolated(di32, row, fx, 1);
   const V acc = hn::Add(hn::ShiftLeft<5>(upper), hn::Mul(hn::Sub(lower, upper), fy));
   // Half to even, as remap_lanes.
   const V odd = hn::And(hn::ShiftRight<10>(acc), hn::Set(di32, 1));
