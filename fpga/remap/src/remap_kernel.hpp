@@ -36,9 +36,9 @@ struct InteriorRun {
 
 // Every read must lie inside the source rows, including the 8-bit grey path's 4-byte and the
 // BGR path's 8-byte loads (2 bytes beyond the right neighbour): the table marks a pixel
-// interior only then (on the source's last row, x0 + 3 < width). The 8-bit grey kernel's
-// windows (16 bytes of three rows per 8 pixels) are taken only where they end before
-// source_end.
+// interior only then (on the source's last row, x0 + 3 < width). The grey kernels' windows
+// (16 bytes of three or four rows per block of 8 or 4 pixels) are read only where they end
+// before source_end.
 void remap_interior_8uc1(const InteriorRun& run);
 void remap_interior_8uc3(const InteriorRun& run);
 void remap_interior_16uc1(const InteriorRun& run);

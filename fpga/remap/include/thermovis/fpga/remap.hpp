@@ -73,7 +73,7 @@ class FastRemapper {
   // Row-major, the source position of each output pixel in 1/32 px (remap_kernel.hpp's
   // pack_entry): one 4-byte read per pixel, two thirds of the memory of a separate integer
   // position and fraction (a 1870 x 1130 table: 8.5 MB instead of 12.7; no faster in the
-  // pipeline's measurements, the gathers bound the kernel).
+  // pipeline's measurements while the kernel gathered its samples).
   std::vector<std::uint32_t> entries_;
   std::vector<Run> runs_;               // all rows' runs, row after row
   std::vector<std::int32_t> row_runs_;  // runs of row v: [row_runs_[v], row_runs_[v + 1])
