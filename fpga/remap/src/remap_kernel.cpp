@@ -261,11 +261,20 @@ HWY_INLINE int window_rows(DU du, V column, V row, int last_column) {
   return hn::AllFalse(du, hn::Eq(row, hn::Set(du, T{2}))) ? 3 : 4;
 }
 
+// The byte offset in the source of the top-left neighbour of the position whose x is the low
+// half of entry `x_of` and whose y is the high half of `y_of` (pack_entry: one pixel added to
+// each).
+template <int kPixelBytes>
+HWY_INLINE std::ptrdiff_t top_left_offset(const InteriorRun& run, std::uint32_t x_of,
+                                          std::uint32_t y_of) {
+  const std::ptrdiff_t x = static_cast<std::ptrdiff_t>(x_of & 0xffffu) >> kFractionBits;
+  const std::ptrdiff_t y = static_cast<std::ptrdiff_t>(y_of >> 16) >> kFractionBits;
+  return (y - 1) * run.step + (x - 1) * kPixelBytes;
+}
+
 // Each block's `rows` windows (windows[r][b]: row r of block b), its first pixel's entry at
-// entries[b * kBlockPixels]; false when the last would end beyond the source. An entry's
-// integer parts carry one added pixel (pack_entry): the top-left neighbour of the block's first
-// pixel is (x - 1, y - 1). The upper row of two entries is that of the smaller (y is in the
-// high half).
+// entries[b * kBlockPixels]; false when the last would end beyond the source. The upper row of
+// two entries is that of the smaller (y is in the high half).
 template <int kBlockPixels, int kPixelBytes, std::size_t kBlocks>
 HWY_INLINE bool block_windows(const InteriorRun& run, const std::uint32_t* entries, int rows,
                               const std::uint8_t* (&windows)[kMaxWindowRows][kBlocks]) {
@@ -273,10 +282,7 @@ HWY_INLINE bool block_windows(const InteriorRun& run, const std::uint32_t* entri
   for (std::size_t b = 0; b < kBlocks; ++b) {
     const std::uint32_t first = entries[b * kBlockPixels];
     const std::uint32_t last = entries[b * kBlockPixels + kBlockPixels - 1];
-    const std::ptrdiff_t x_first = static_cast<std::ptrdiff_t>(first & 0xffffu) >> kFractionBits;
-    const std::ptrdiff_t y_upper =
-        static_cast<std::ptrdiff_t>(std::min(first, last) >> 16) >> kFractionBits;
-    const std::ptrdiff_t top = (y_upper - 1) * run.step + (x_first - 1) * kPixelBytes;
+    const std::ptrdiff_t top = top_left_offset<kPixelBytes>(run, first, std::min(first, last));
     if (top + (rows - 1) * run.step + kWindowBytes > readable) return false;
     for (int r = 0; r < rows; ++r) windows[r][b] = run.source + top + r * run.step;
   }
@@ -474,9 +480,7 @@ constexpr int kPrefetchWindowRows = 5;
 template <int kPixelBytes>
 HWY_INLINE void prefetch_windows(const InteriorRun& run, int i) {
   const std::uint32_t entry = run.entries[i];
-  const std::ptrdiff_t x = static_cast<std::ptrdiff_t>(entry & 0xffffu) >> kFractionBits;
-  const std::ptrdiff_t y = static_cast<std::ptrdiff_t>(entry >> 16) >> kFractionBits;
-  const std::uint8_t* top = run.source + (y - 1) * run.step + (x - 1) * kPixelBytes;
+  const std::uint8_t* top = run.source + top_left_offset<kPixelBytes>(run, entry, entry);
   for (int r = 0; r < kPrefetchWindowRows; ++r) hwy::Prefetch(top + r * run.step);
 }
 
