@@ -91,9 +91,9 @@ void Supervisor::take_timing() {
     for (const StageStamp& stamp : t.stamps().stamps()) {
       if (stamp.stage() == STAGE_NONE) continue;
       const double ms = stamp.duration_us() / 1000.0;
-      stage_ms_[stamp.stage()].push_back(ms);
-      stage_done_ms_[stamp.stage()].push_back(
-          static_cast<double>(stamp.end_ns() - t.capture_time_ns()) / 1e6);
+      StageSamples& stage = stage_ms_[stamp.stage()];
+      stage.own_ms.push_back(ms);
+      stage.done_ms.push_back(static_cast<double>(stamp.end_ns() - t.capture_time_ns()) / 1e6);
       if (ms > late.slowest_stage_ms) {
         late.slowest_stage_ms = ms;
         late.slowest_stage = stage_name(stamp.stage());
@@ -141,7 +141,6 @@ void Supervisor::reset_statistics() {
   take_health();
   latencies_ms_.clear();
   stage_ms_.clear();
-  stage_done_ms_.clear();
   late_.clear();
   first_seq_ = last_seq_ = 0;
   base_bad_inputs_ = base_deadline_misses_ = base_bad_timing_ = 0;
@@ -195,12 +194,12 @@ LatencySummary Supervisor::summary() const {
   s.bad_inputs -= std::min(s.bad_inputs, base_bad_inputs_);
   s.bad_timing -= std::min(s.bad_timing, base_bad_timing_);
   s.deadline_misses -= std::min(s.deadline_misses, base_deadline_misses_);
-  for (const auto& [stage, values] : stage_ms_) {
-    const std::vector<double>& done = stage_done_ms_.at(stage);
-    s.stages.push_back({stage_name(stage), metrics::percentile(values, 50),
-                        metrics::percentile(values, 99),
-                        *std::max_element(values.begin(), values.end()),
-                        metrics::percentile(done, 50), metrics::percentile(done, 99)});
+  for (const auto& [stage, samples] : stage_ms_) {
+    const std::vector<double>& own = samples.own_ms;
+    s.stages.push_back({stage_name(stage), metrics::percentile(own, 50),
+                        metrics::percentile(own, 99), *std::max_element(own.begin(), own.end()),
+                        metrics::percentile(samples.done_ms, 50),
+                        metrics::percentile(samples.done_ms, 99)});
   }
   return s;
 }

@@ -112,8 +112,11 @@ class Supervisor {
   };
   std::map<std::string, Instance> instances_;  // by manifest name: the process being watched
   std::vector<double> latencies_ms_;
-  std::map<Stage, std::vector<double>> stage_ms_;
-  std::map<Stage, std::vector<double>> stage_done_ms_;  // end_ns after the capture
+  struct StageSamples {
+    std::vector<double> own_ms;   // the stamps' durations
+    std::vector<double> done_ms;  // their end_ns after the capture
+  };
+  std::map<Stage, StageSamples> stage_ms_;
   std::vector<LateFrame> late_;
   std::uint64_t first_seq_ = 0, last_seq_ = 0;
   std::size_t stale_segments_removed_ = 0;
