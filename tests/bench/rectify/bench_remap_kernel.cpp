@@ -20,6 +20,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/core/utility.hpp>
 #include <opencv2/imgproc.hpp>
+#include <type_traits>
 #include <vector>
 
 #include "thermovis/camera/rectified.hpp"
@@ -100,12 +101,19 @@ void set_counters(benchmark::State& state, const Case& c) {
                           c.cv_fractions.total() * c.cv_fractions.elemSize());
 }
 
-// Times remap(case, out) alone; ns_per_px = time per output pixel.
-template <typename Remap>
-void time_remap(benchmark::State& state, Remap remap) {
+// Times remap(case, out) alone, after `untimed()` each time when given; ns_per_px = time per
+// output pixel.
+struct NothingUntimed {};
+template <typename Remap, typename Untimed = NothingUntimed>
+void time_remap(benchmark::State& state, Remap remap, Untimed untimed = {}) {
   const Case& c = get_case(static_cast<int>(state.range(0)));
   cv::Mat out;
   for (auto _ : state) {
+    if constexpr (!std::is_same_v<Untimed, NothingUntimed>) {
+      state.PauseTiming();
+      untimed();
+      state.ResumeTiming();
+    }
     remap(c, out);
     benchmark::DoNotOptimize(out.data);
   }
@@ -156,23 +164,14 @@ void BM_Compare(benchmark::State& state) {
 // and the table was pushed out of the caches by the other stages since the last capture.
 // Between iterations (not timed) 64 MB are written, more than this machine's caches hold.
 void BM_OursCold(benchmark::State& state) {
-  const Case& c = get_case(static_cast<int>(state.range(0)));
-  const cv::Mat source = c.image.clone();
   std::vector<unsigned char> evict(64u << 20);
-  cv::Mat out;
   unsigned char fill = 0;
-  for (auto _ : state) {
-    state.PauseTiming();
-    std::fill(evict.begin(), evict.end(), ++fill);
-    benchmark::DoNotOptimize(evict.data());
-    state.ResumeTiming();
-    c.ours->remap(source, out);
-    benchmark::DoNotOptimize(out.data);
-  }
-  set_counters(state, c);
-  state.counters["ns_per_px"] = benchmark::Counter(
-      static_cast<double>(c.grid.area()) * 1e-9,
-      benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+  time_remap(
+      state, [](const Case& c, cv::Mat& out) { c.ours->remap(c.image, out); },
+      [&] {
+        std::fill(evict.begin(), evict.end(), ++fill);
+        benchmark::DoNotOptimize(evict.data());
+      });
 }
 
 BENCHMARK(BM_Ours)->DenseRange(0, kCases - 1)->Unit(benchmark::kMillisecond);
