@@ -87,7 +87,7 @@ void Supervisor::take_timing() {
     latencies_ms_.push_back(latency_ms);
     if (latencies_ms_.size() == 1) first_seq_ = t.frame_seq();
     last_seq_ = std::max(last_seq_, t.frame_seq());
-    LateFrame late{t.frame_seq(), latency_ms, "none", 0.0};
+    LateFrame late{t.frame_seq(), t.capture_time_ns(), t.output_time_ns(), latency_ms, "none", 0.0};
     for (const StageStamp& stamp : t.stamps().stamps()) {
       if (stamp.stage() == STAGE_NONE) continue;
       const double ms = stamp.duration_us() / 1000.0;
@@ -107,8 +107,27 @@ void Supervisor::take_health() {
   auto samples = health_in_.take();
   for (std::size_t i = 0; i < samples.size(); ++i) {
     const std::string service = samples[i].service().to_string();
+    record_misses(health_.count(service) ? &health_[service] : nullptr, samples[i]);
     health_[service] = samples[i];
     last_health_[service] = Clock::now();
+  }
+}
+
+void Supervisor::record_misses(const Health* before, const Health& now) {
+  for (const TopicHealth& topic : now.topics()) {
+    const std::uint64_t misses =
+        std::uint64_t{topic.requested_deadline_missed()} + topic.offered_deadline_missed();
+    std::uint64_t earlier = 0;
+    if (before != nullptr) {
+      for (const TopicHealth& t : before->topics())
+        if (t.topic() == topic.topic())
+          earlier = std::uint64_t{t.requested_deadline_missed()} + t.offered_deadline_missed();
+    }
+    // Fewer than before: a new process of the service, counting from zero again.
+    const std::uint64_t added = misses >= earlier ? misses - earlier : misses;
+    if (added == 0) continue;
+    miss_events_.push_back(
+        {now.time_ns(), now.service().to_string() + " " + topic.topic().to_string(), added});
   }
 }
 
@@ -142,6 +161,7 @@ void Supervisor::reset_statistics() {
   latencies_ms_.clear();
   stage_ms_.clear();
   late_.clear();
+  miss_events_.clear();
   first_seq_ = last_seq_ = 0;
   base_bad_inputs_ = base_deadline_misses_ = base_bad_timing_ = 0;
   base_deadline_misses_by_endpoint_.clear();
@@ -161,6 +181,7 @@ LatencySummary Supervisor::summary() const {
   s.max_ms =
       latencies_ms_.empty() ? 0.0 : *std::max_element(latencies_ms_.begin(), latencies_ms_.end());
   s.over_deadline = late_.size();
+  s.deadline_miss_events = miss_events_;
   s.first_seq = first_seq_;
   s.last_seq = last_seq_;
   if (s.frames > 0)

@@ -36,6 +36,14 @@ struct StageLatency {
   double done_p50_ms = 0.0, done_p99_ms = 0.0;
 };
 
+// DEADLINE misses counted by one service on one topic, at the time of the health that first
+// carried them (a service publishes its health when it sees a miss counted: node/health.hpp).
+struct DeadlineMissEvent {
+  std::int64_t time_ns = 0;  // the health's time_ns (CLOCK_REALTIME)
+  std::string endpoint;      // "service topic"
+  std::uint64_t misses = 0;
+};
+
 struct LatencySummary {
   std::uint64_t frames = 0;  // frames that reached the output
   double p50_ms = 0.0, p99_ms = 0.0, max_ms = 0.0;
@@ -43,7 +51,8 @@ struct LatencySummary {
   std::uint64_t deadline_misses = 0;  // DEADLINE QoS misses over every service's topics
   // The same per "service topic" (a late sample counts at its writer and at each reader).
   std::map<std::string, std::uint64_t> deadline_misses_by_endpoint;
-  std::uint64_t bad_inputs = 0;  // errors reported in health, and bad_timing
+  std::vector<DeadlineMissEvent> deadline_miss_events;  // the same as they were reported
+  std::uint64_t bad_inputs = 0;                         // errors reported in health, and bad_timing
   std::uint64_t bad_timing = 0;  // thermovis/timing samples rejected (node::check_timing)
   std::uint64_t restarts = 0;
   std::uint64_t first_seq = 0, last_seq = 0;  // output frames seen
@@ -61,6 +70,8 @@ struct LatencySummary {
 // One frame that went over the latency deadline, with the stage that used the most time.
 struct LateFrame {
   std::uint64_t seq = 0;
+  std::int64_t capture_ns = 0;  // its capture and output, on the stamps' clock
+  std::int64_t output_ns = 0;
   double latency_ms = 0.0;
   std::string slowest_stage;
   double slowest_stage_ms = 0.0;
@@ -97,6 +108,8 @@ class Supervisor {
  private:
   void take_timing();
   void take_health();
+  // The misses `now` counts beyond `before` (the same service's previous health, or none).
+  void record_misses(const Health* before, const Health& now);
   void check_hung();
 
   SupervisorConfig config_;
@@ -104,7 +117,8 @@ class Supervisor {
   transport::Reader<FrameTiming> timing_in_;
   transport::Reader<Health> health_in_;
   transport::Reader<RangeArray> ranges_in_;
-  std::map<std::string, Health> health_;  // by service health key
+  std::map<std::string, Health> health_;        // by service health key
+  std::vector<DeadlineMissEvent> miss_events_;  // since the last reset
   std::map<std::string, std::chrono::steady_clock::time_point> last_health_;
   struct Instance {
     int pid = -1;

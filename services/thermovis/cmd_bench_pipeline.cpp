@@ -27,6 +27,7 @@
 #include "pipeline_session.hpp"
 #include "thermovis/metrics/percentile.hpp"
 #include "thermovis/node/service.hpp"
+#include "thermovis/process/host_stalls.hpp"
 #include "thermovis/transport/topics.hpp"
 
 namespace {
@@ -41,6 +42,7 @@ struct Options {
   thermovis::cli::DisplayOptions display;
   int external_readers = 0;  // other applications reading every frame topic (second measurement)
   int external_hold_ms = 200;
+  bool host_probe = true;  // the machine's stalls beside the latencies (host_stalls.hpp)
 };
 
 // Other DDS applications reading every frame topic (build/bin/external_reader: Fast DDS's
@@ -149,6 +151,69 @@ bool run_for(thermovis::cli::PipelineSession& session, thermovis::cli::DisplaySe
   return true;
 }
 
+// The machine's own stalls over the measurement (process::HostStallProbe), and the late frames
+// and DEADLINE misses that fell in one of at least kStallMs: a frame whose capture-to-output
+// interval overlaps it; a miss whose health came within kMissWindowNs after it (the miss is
+// counted a DEADLINE period after the last sample and published at the service's next tick).
+struct HostStallReport {
+  std::string scheduling;
+  std::vector<int> cpus;
+  thermovis::process::HostStallSummary stalls;
+  std::uint64_t over_deadline = 0, over_deadline_in_stalls = 0;
+  std::uint64_t deadline_misses = 0, deadline_misses_in_stalls = 0;
+  std::map<std::string, std::uint64_t> misses_outside_stalls;  // by "service topic"
+};
+constexpr double kStallMs = 5.0;
+constexpr std::int64_t kMissWindowNs = 100'000'000;
+
+// `r` holds the probe's scheduling and CPUs.
+void attribute_to_stalls(HostStallReport& r,
+                         const std::vector<thermovis::process::HostStall>& stalls,
+                         const thermovis::supervisor::LatencySummary& latency,
+                         const std::vector<thermovis::supervisor::LateFrame>& late) {
+  r.stalls = thermovis::process::summarize(stalls, r.cpus);
+  r.over_deadline = late.size();
+  for (const auto& frame : late)
+    r.over_deadline_in_stalls +=
+        thermovis::process::during_stall(stalls, frame.capture_ns, frame.output_ns, kStallMs);
+  for (const auto& miss : latency.deadline_miss_events) {
+    r.deadline_misses += miss.misses;
+    if (thermovis::process::during_stall(stalls, miss.time_ns - kMissWindowNs, miss.time_ns,
+                                         kStallMs))
+      r.deadline_misses_in_stalls += miss.misses;
+    else
+      r.misses_outside_stalls[miss.endpoint] += miss.misses;
+  }
+}
+
+nlohmann::json host_stall_json(const HostStallReport& r) {
+  nlohmann::json by_cpu = nlohmann::json::object();
+  for (const auto& [cpu, n] : r.stalls.over_5ms_by_cpu) by_cpu[std::to_string(cpu)] = n;
+  return {{"probe", r.scheduling},
+          {"cpus", r.cpus},
+          {"over_5ms", r.stalls.over_5ms},
+          {"over_10ms", r.stalls.over_10ms},
+          {"max_ms", r.stalls.max_ms},
+          {"total_ms", r.stalls.total_ms},
+          {"over_5ms_by_cpu", by_cpu},
+          {"over_deadline", r.over_deadline},
+          {"over_deadline_in_stalls", r.over_deadline_in_stalls},
+          {"deadline_misses", r.deadline_misses},
+          {"deadline_misses_in_stalls", r.deadline_misses_in_stalls},
+          {"deadline_misses_outside_stalls_by_endpoint", r.misses_outside_stalls}};
+}
+
+std::string host_stall_text(const HostStallReport& r, double deadline_ms) {
+  std::ostringstream out;
+  out << std::fixed << std::setprecision(1) << "  host: CPUs stopped " << r.stalls.over_5ms
+      << " times for 5 ms or more (" << r.stalls.over_10ms << " for 10 ms or more, longest "
+      << r.stalls.max_ms << " ms; a probe at " << r.scheduling << " on " << r.cpus.size()
+      << " CPUs); during them: " << r.over_deadline_in_stalls << " of " << r.over_deadline
+      << " frames over " << deadline_ms << " ms, " << r.deadline_misses_in_stalls << " of "
+      << r.deadline_misses << " DEADLINE misses\n";
+  return out.str();
+}
+
 // The page's display latency (DisplaySession::latency) as one line, beside the paper's figure.
 std::string display_text(const nlohmann::json& latency, const std::string& browser) {
   std::ostringstream out;
@@ -220,6 +285,13 @@ int run_bench(Options& opt) {
   if (opt.view || !opt.display.browser.empty()) {
     display = std::make_unique<thermovis::cli::DisplaySession>(opt.session, opt.display);
   }
+  std::optional<thermovis::process::HostStallProbe> probe;
+  if (opt.host_probe) probe.emplace();
+  const auto reset_statistics = [&] {
+    session.reset_statistics();
+    if (display) display->reset_statistics();
+    if (probe) probe->reset();
+  };
   run_for(session, display.get(), opt.warmup_s);
   // The simulated bridge renders live what it has not prerendered yet (20 ms a capture on the
   // street scene, over a core): the measurement waits for its steady state (a minute at most:
@@ -230,8 +302,7 @@ int run_bench(Options& opt) {
     if (!opt.json) std::cout << "waiting for the bridge: " << preparing << std::endl;
     if (!run_for(session, display.get(), 1.0)) break;
   }
-  session.reset_statistics();
-  if (display) display->reset_statistics();
+  reset_statistics();
   // With external readers: the measurement without them first, then theirs (the rest of this
   // function) after they have matched.
   std::optional<thermovis::supervisor::LatencySummary> without_readers;
@@ -242,8 +313,7 @@ int run_bench(Options& opt) {
     readers = std::make_unique<ExternalReaders>(opt.external_readers, opt.session.domain,
                                                 opt.external_hold_ms, 3.0 + opt.seconds / 3);
     run_for(session, display.get(), 3.0);
-    session.reset_statistics();
-    if (display) display->reset_statistics();
+    reset_statistics();
   }
   // Kills spread evenly over the measured time, each with time to recover before the next.
   const double slice = opt.seconds / static_cast<double>(opt.kill.size() + 1);
@@ -254,6 +324,15 @@ int run_bench(Options& opt) {
   }
   if (running) run_for(session, display.get(), slice);
   auto cpu = session.cpu();  // before stopping: the processes must still be there
+  std::optional<HostStallReport> host;
+  std::vector<thermovis::process::HostStall> stalls;
+  if (probe) {
+    host.emplace();
+    host->scheduling = probe->scheduling();
+    host->cpus = probe->cpus();
+    stalls = probe->stalls();
+    probe.reset();  // its threads stop with the measurement
+  }
   nlohmann::json display_latency;
   std::vector<thermovis::cli::ProcessCpu> display_cpu;
   if (display) {
@@ -265,6 +344,7 @@ int run_bench(Options& opt) {
   session.stop();
   const auto latency = session.latency();
   const CpuBudget budget = cpu_budget(session, cpu, geometry, latency);
+  if (host) attribute_to_stalls(*host, stalls, latency, session.late_frames());
   // Not part of the budget (the pipeline's), but listed beside its processes.
   cpu.insert(cpu.end(), display_cpu.begin(), display_cpu.end());
   const auto errors = session.errors();
@@ -294,6 +374,7 @@ int run_bench(Options& opt) {
     j["floor_cpu_ms"] = number(budget.floor_ms);
     j["pipeline_over_floor"] = number(budget.pipeline_ms / budget.floor_ms);
     j["linear_floor_cpu_ms"] = number(budget.linear_floor_ms);
+    if (host) j["host_stalls"] = host_stall_json(*host);
     nlohmann::json outages = nlohmann::json::object();
     for (const auto& [service, o] : outages_by_service(session.outages())) {
       outages[service] = {{"kills", o.kills},
@@ -321,6 +402,7 @@ int run_bench(Options& opt) {
       std::cout << "):\n";
     }
     std::cout << thermovis::supervisor::summary_text(latency, session.deadline_ms());
+    if (host) std::cout << host_stall_text(*host, session.deadline_ms());
     for (const auto& p : cpu) {
       std::cout << "  process " << std::setw(13) << std::left << p.service << std::right << " cpu "
                 << std::fixed << std::setprecision(1) << std::setw(6) << p.cpu_percent << " %  rss "
@@ -397,6 +479,9 @@ THERMOVIS_COMMAND("bench pipeline",
                                    "how long a slow external reader holds each frame")
                         ->capture_default_str()
                         ->check(CLI::Range(0, 10000));
+                    app.add_flag("!--no-host-probe", opt->host_probe,
+                                 "without the probe of the machine's own stalls (a thread per "
+                                 "CPU at fifo 50 waking every ms)");
                     app.add_flag("--view", opt->view,
                                  "also run the live display (thermovis-view), as `run --view`");
                     app.add_option("--view-port", opt->display.port, "HTTP port of the display")

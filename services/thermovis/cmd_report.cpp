@@ -643,7 +643,19 @@ std::string pipeline_tables(const std::vector<json>& rows) {
        " ranges, " + std::to_string(r.at("ranges_on_target").get<long>()) +
        " on a target, mean |error| " + fixed(r.at("mean_abs_error_m"), 3) + " m (" +
        percent(r.at("mean_abs_relative_error"), 2) + "), p95 " + fixed(r.at("p95_abs_error_m"), 3) +
-       " m.\n\n";
+       " m.";
+  if (r.contains("host_stalls")) {
+    // The machine's own stalls (bench pipeline's probe), and what of the tails fell in them.
+    const json& h = r.at("host_stalls");
+    const auto count = [&](const char* key) { return std::to_string(h.at(key).get<long>()); };
+    s += " The machine's CPUs stopped " + count("over_5ms") + " times for 5 ms or more (" +
+         count("over_10ms") + " for 10 ms or more, longest " + fixed(h.at("max_ms"), 1) +
+         " ms, seen by a probe at " + h.at("probe").get<std::string>() + " on each CPU); " +
+         count("over_deadline_in_stalls") + " of the " + count("over_deadline") +
+         " frames over the deadline and " + count("deadline_misses_in_stalls") + " of the " +
+         count("deadline_misses") + " DEADLINE misses fell in one.";
+  }
+  s += "\n\n";
   s += table_head({"process", "CPU (% of one core)", "RSS (MB)", "scheduling"});
   for (const auto& [service, p] : r.at("processes").items()) {
     s += table_row({service, fixed(p.at("cpu_percent"), 0), fixed(p.at("rss_mb"), 0),

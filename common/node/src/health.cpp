@@ -17,6 +17,17 @@ constexpr std::uint32_t kLoggedErrors = 20;
 // How long a stopping service waits for its readers to acknowledge its last health.
 constexpr std::chrono::milliseconds kStoppingAckWait{500};
 
+// A DEADLINE miss is published when the service sees it counted, but not oftener than this
+// (an input that has stopped misses every period).
+constexpr std::chrono::milliseconds kMissPublishInterval{50};
+
+std::uint64_t misses_of(const std::vector<transport::TopicCountersSnapshot>& counters) {
+  std::uint64_t misses = 0;
+  for (const auto& c : counters)
+    misses += std::uint64_t{c.requested_deadline_missed} + c.offered_deadline_missed;
+  return misses;
+}
+
 std::string clip(const std::string& text, std::size_t max) {
   return text.size() <= max ? text : text.substr(0, max - 3) + "...";
 }
@@ -104,7 +115,12 @@ void HealthReporter::bad_input(const std::string& message) {
 void HealthReporter::tick() {
   systemd_.ready(service_);
   systemd_.watchdog();
-  if (std::chrono::steady_clock::now() - last_publish_ >= period_) publish_now();
+  const auto since = std::chrono::steady_clock::now() - last_publish_;
+  // A reader of the health then knows when a miss happened (the supervisor lays them beside
+  // the machine's stalls), not only that one did within the period.
+  const bool missed = counters_ && since >= kMissPublishInterval &&
+                      misses_of(counters_()) != published_misses_.load();
+  if (missed || since >= period_) publish_now();
 }
 
 void HealthReporter::publish_now() {
@@ -119,7 +135,9 @@ void HealthReporter::publish_now() {
   }
   health.time_ns(transport::now_ns());
   if (counters_) {
-    for (const auto& c : counters_()) {
+    const auto counters = counters_();
+    published_misses_ = misses_of(counters);
+    for (const auto& c : counters) {
       if (health.topics().size() >= MAX_HEALTH_TOPICS) break;
       TopicHealth topic;
       topic.topic(clip(c.topic, MAX_TOPIC_NAME_LENGTH));

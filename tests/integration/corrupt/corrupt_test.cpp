@@ -14,6 +14,7 @@
 #include <opencv2/imgproc.hpp>
 #include <optional>
 #include <thread>
+#include <tuple>
 
 #include "marker_matches.hpp"
 #include "pipeline_harness.hpp"
@@ -548,7 +549,8 @@ TEST(Corrupt, SupervisorCountsBadTimingAndKeepsItOutOfTheLatencies) {
 }
 
 // DEADLINE QoS misses come from the services' health, counted per service and topic (a late
-// sample counts at its writer and at each reader) and since the last reset_statistics().
+// sample counts at its writer and at each reader) and since the last reset_statistics(), each
+// at the time of the health that first counted it.
 TEST(Corrupt, SupervisorCountsDeadlineMissesPerServiceAndTopic) {
   SupervisorAlone alone("deadline_misses");
   tv::supervisor::Supervisor& supervisor = alone.supervisor;
@@ -568,6 +570,7 @@ TEST(Corrupt, SupervisorCountsDeadlineMissesPerServiceAndTopic) {
     ranges.topic(topics::kRanges);
     h.topics({visible, infrared, ranges});
     health.write(h);
+    return h.time_ns();
   };
   const auto summary_when = [&](auto done) {
     tv::supervisor::LatencySummary s;
@@ -579,20 +582,32 @@ TEST(Corrupt, SupervisorCountsDeadlineMissesPerServiceAndTopic) {
     }
     return s;
   };
-  publish(2, 1);
+  const std::int64_t first_ns = publish(2, 1);
   auto s = summary_when([](const auto& x) { return x.deadline_misses == 3; });
   EXPECT_EQ(s.deadline_misses, 3u);
   const std::string visible = std::string("thermovis-fake ") + topics::kRectifiedVisible;
   const std::string infrared = std::string("thermovis-fake ") + topics::kRectifiedInfrared;
+  const auto events = [](const tv::supervisor::LatencySummary& x) {
+    std::vector<std::tuple<std::int64_t, std::string, std::uint64_t>> out;
+    for (const auto& e : x.deadline_miss_events) out.emplace_back(e.time_ns, e.endpoint, e.misses);
+    return out;
+  };
+  using Events = std::vector<std::tuple<std::int64_t, std::string, std::uint64_t>>;
+  EXPECT_EQ(events(s), (Events{{first_ns, visible, 2}, {first_ns, infrared, 1}}));
   EXPECT_EQ(s.deadline_misses_by_endpoint,
             (std::map<std::string, std::uint64_t>{{visible, 2}, {infrared, 1}}));
   EXPECT_NE(tv::supervisor::summary_text(s, 20.0).find(visible + " 2;"), std::string::npos)
       << tv::supervisor::summary_text(s, 20.0);
   supervisor.reset_statistics();
-  publish(5, 1);
+  const std::int64_t second_ns = publish(5, 1);
   s = summary_when([](const auto& x) { return x.deadline_misses == 3; });
   EXPECT_EQ(s.deadline_misses, 3u);
   EXPECT_EQ(s.deadline_misses_by_endpoint, (std::map<std::string, std::uint64_t>{{visible, 3}}));
+  EXPECT_EQ(events(s), (Events{{second_ns, visible, 3}}));
+  // A new process of the service counts from zero again: its first count is all new.
+  const std::int64_t restarted_ns = publish(1, 0);
+  s = summary_when([](const auto& x) { return x.deadline_miss_events.size() == 2; });
+  EXPECT_EQ(events(s), (Events{{second_ns, visible, 3}, {restarted_ns, visible, 1}}));
 }
 
 }  // namespace

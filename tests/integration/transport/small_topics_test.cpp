@@ -1,13 +1,18 @@
 // Small topics in one process (two participants on a private domain, loopback profile):
 // health state reaches a late subscriber (TRANSIENT_LOCAL, one instance per service), ranges
-// arrive reliably and in order, and misuse is refused with a clear error.
+// arrive reliably and in order, a DEADLINE miss is published when it is counted, and misuse is
+// refused with a clear error.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <map>
+#include <thread>
 
+#include "thermovis/node/health.hpp"
 #include "thermovis/test/data.hpp"
+#include "thermovis/transport/clock.hpp"
 #include "thermovis/transport/participant.hpp"
 #include "thermovis/transport/reader.hpp"
 #include "thermovis/transport/topics.hpp"
@@ -55,6 +60,50 @@ TEST(TransportSmallTopics, LateSubscriberGetsLastHealthOfEachService) {
   }
   EXPECT_EQ(frames_by_service, (std::map<std::string, std::uint64_t>{{"thermovis-detect", 50},
                                                                      {"thermovis-range", 7}}));
+}
+
+// The supervisor lays each DEADLINE miss beside the machine's stalls by the time of the health
+// that first counts it: a miss is published at the service's next tick, not a period later.
+TEST(TransportSmallTopics, HealthIsPublishedWhenADeadlineMissIsCounted) {
+  tt::Participant publisher(loopback("health writer"));
+  tt::Participant subscriber(loopback("health reader"));
+  tt::Reader<thermovis::Health> reader(subscriber, tt::topics::kHealth, tt::state_topic_qos());
+  std::atomic<std::uint32_t> missed{0};
+  thermovis::node::HealthReporter health(
+      publisher, "thermovis-test",
+      [&] {
+        tt::TopicCountersSnapshot c;
+        c.topic = "thermovis/frames/visible";
+        c.requested_deadline_missed = missed.load();
+        return std::vector<tt::TopicCountersSnapshot>{c};
+      },
+      std::chrono::hours(1));
+  ASSERT_TRUE(reader.wait_for_writers(1, 10s));
+  health.set_state(thermovis::HEALTH_OK, "processing");
+  // Samples seen by `until`, ticking the reporter every few ms as a service's loop does.
+  const auto take_while_ticking = [&](std::chrono::milliseconds span) {
+    std::vector<thermovis::Health> seen;
+    const auto until = std::chrono::steady_clock::now() + span;
+    while (std::chrono::steady_clock::now() < until) {
+      health.tick();
+      if (!reader.wait_for_data(5ms)) continue;
+      auto samples = reader.take();
+      for (std::size_t i = 0; i < samples.size(); ++i) seen.push_back(samples[i]);
+    }
+    return seen;
+  };
+  const auto first = take_while_ticking(1000ms);
+  ASSERT_FALSE(first.empty());
+  EXPECT_EQ(thermovis::node::deadline_misses(first.back()), 0u);
+  // No miss, a period of an hour: ticking publishes nothing.
+  EXPECT_TRUE(take_while_ticking(200ms).empty());
+  missed = 2;
+  const std::int64_t counted_ns = tt::now_ns();
+  const auto after = take_while_ticking(1000ms);
+  ASSERT_EQ(after.size(), 1u);
+  EXPECT_EQ(thermovis::node::deadline_misses(after.front()), 2u);
+  EXPECT_GE(after.front().time_ns(), counted_ns);
+  EXPECT_LT(after.front().time_ns(), counted_ns + 1'000'000'000);
 }
 
 TEST(TransportSmallTopics, RangesArriveInOrder) {

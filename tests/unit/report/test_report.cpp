@@ -180,6 +180,39 @@ TEST(Report, RangingRunsOfOneLabelArePooledAndLabelsGetTheirOwnTables) {
   EXPECT_NE(grid_b.find("| 5 | 0.100 / 0.100, 1/2 (0.18) |\n"), std::string::npos) << grid_b;
 }
 
+TEST(Report, PipelineRunGivesItsStagesAndWhatOfItsTailsFellInTheMachinesStalls) {
+  const fs::path dir = canned_runs("report_pipeline");
+  write(dir / "runs.json", R"({"machine": {"cpu": "Test CPU", "cores": 2,
+      "date": "2030-01-02 03:04 UTC", "load_average": 1.5}, "quick": false,
+    "command": "thermovis report",
+    "runs": [{"kind": "pipeline", "label": "", "file": "1-pipeline.jsonl",
+              "command": "thermovis bench pipeline --seconds 20 --warmup 5 --json"}]})");
+  write(dir / "1-pipeline.jsonl",
+        R"({"frames":1000,"seconds":20,"p50_ms":9.71,"p99_ms":17.36,"max_ms":24.5,)"
+        R"("over_deadline":5,"dropped":0,"deadline_misses":12,"bad_inputs":0,"restarts":0,)"
+        R"("ranges":8000,"ranges_on_target":8000,"mean_abs_error_m":0.2237,)"
+        R"("mean_abs_relative_error":0.0064,"p95_abs_error_m":1.087,)"
+        R"("stages":{"match":{"p50_ms":2.16,"p99_ms":3.23,"max_ms":12.3,"done_p50_ms":8.78}},)"
+        R"("processes":{"match":{"cpu_percent":25.4,"rss_mb":79.6,"scheduling":"fifo 10"}},)"
+        R"("host_stalls":{"probe":"fifo 50","cpus":[0,1],"over_5ms":10,"over_10ms":2,)"
+        R"("max_ms":12.79,"total_ms":225.3,"over_5ms_by_cpu":{"0":5,"1":5},"over_deadline":5,)"
+        R"("over_deadline_in_stalls":4,"deadline_misses":12,"deadline_misses_in_stalls":10,)"
+        R"("deadline_misses_outside_stalls_by_endpoint":{}}})"
+        "\n");
+  const fs::path out = dir / "RESULTS.md";
+  const auto r = run_thermovis("report --from " + dir.string() + " --out " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string md = read(out);
+  EXPECT_NE(md.find("| capture to range | 9.7 | 17.4 | 24.5 | 9.7 |\n"), std::string::npos) << md;
+  EXPECT_NE(md.find("| stage match | 2.2 | 3.2 | 12.3 | 8.8 |\n"), std::string::npos) << md;
+  EXPECT_NE(md.find("The machine's CPUs stopped 10 times for 5 ms or more (2 for 10 ms or more, "
+                    "longest 12.8 ms, seen by a probe at fifo 50 on each CPU); 4 of the 5 frames "
+                    "over the deadline and 10 of the 12 DEADLINE misses fell in one."),
+            std::string::npos)
+      << md;
+  EXPECT_NE(md.find("| match | 25 | 80 | fifo 10 |\n"), std::string::npos) << md;
+}
+
 TEST(Report, ABadRowNamesItsFileAndLine) {
   const fs::path dir = canned_runs("report_bad_row");
   write(dir / "2-match.jsonl", "{\"method\": \"ncc\",\n{oops\n");

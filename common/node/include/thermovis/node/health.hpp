@@ -1,7 +1,9 @@
 #pragma once
 // A service's health on thermovis/health (RELIABLE + TRANSIENT_LOCAL, keyed by service name):
 // state, frames processed, bad inputs and the last error, and the deadline counters of every
-// topic it reads or writes. Published on every state change and at most once per period.
+// topic it reads or writes. Published on every state change, when a DEADLINE miss is counted
+// (at most every 50 ms) and at least once per period.
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <functional>
@@ -46,7 +48,8 @@ class HealthReporter {
   // Counts a bad input and keeps its message; the state becomes DEGRADED until `recover_after`
   // good frames have passed.
   void bad_input(const std::string& message);
-  // Publishes if the period has passed since the last publication. Called from the service's
+  // Publishes if the period has passed since the last publication, or a DEADLINE miss has been
+  // counted since (at most every 50 ms). Called from the service's
   // processing loop, it also tells systemd (Type=notify units) that the service is ready, the
   // first time, and pings its watchdog.
   void tick();
@@ -67,6 +70,7 @@ class HealthReporter {
   std::uint32_t errors_ = 0;
   std::uint64_t good_since_error_ = 0;
   std::chrono::steady_clock::time_point last_publish_{};
+  std::atomic<std::uint64_t> published_misses_{0};  // DEADLINE misses in the last publication
   SystemdNotifier systemd_;
 };
 
