@@ -21,6 +21,9 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 
+// DEADLINE miss events kept since the last reset_statistics() (LatencySummary's).
+constexpr std::size_t kMaxMissEvents = 10000;
+
 // Exits, restarts and failed starts, one line each on the supervisor's log.
 void log_event(const std::string& service, const std::string& event) {
   std::cerr << "thermovis-supervisor: " << service << ": " << event << std::endl;
@@ -125,7 +128,8 @@ void Supervisor::record_misses(const Health* before, const Health& now) {
     }
     // Fewer than before: a new process of the service, counting from zero again.
     const std::uint64_t added = misses >= earlier ? misses - earlier : misses;
-    if (added == 0) continue;
+    // A long run with an input gone misses every period: its first events are kept, not all.
+    if (added == 0 || miss_events_.size() >= kMaxMissEvents) continue;
     miss_events_.push_back(
         {now.time_ns(), now.service().to_string() + " " + topic.topic().to_string(), added});
   }

@@ -51,8 +51,9 @@ struct LatencySummary {
   std::uint64_t deadline_misses = 0;  // DEADLINE QoS misses over every service's topics
   // The same per "service topic" (a late sample counts at its writer and at each reader).
   std::map<std::string, std::uint64_t> deadline_misses_by_endpoint;
-  std::vector<DeadlineMissEvent> deadline_miss_events;  // the same as they were reported
-  std::uint64_t bad_inputs = 0;                         // errors reported in health, and bad_timing
+  // The same as they were reported (the first 10000 since the last reset).
+  std::vector<DeadlineMissEvent> deadline_miss_events;
+  std::uint64_t bad_inputs = 0;  // errors reported in health, and bad_timing
   std::uint64_t bad_timing = 0;  // thermovis/timing samples rejected (node::check_timing)
   std::uint64_t restarts = 0;
   std::uint64_t first_seq = 0, last_seq = 0;  // output frames seen
