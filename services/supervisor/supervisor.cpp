@@ -118,13 +118,11 @@ void Supervisor::take_health() {
 
 void Supervisor::record_misses(const Health* before, const Health& now) {
   for (const TopicHealth& topic : now.topics()) {
-    const std::uint64_t misses =
-        std::uint64_t{topic.requested_deadline_missed()} + topic.offered_deadline_missed();
+    const std::uint64_t misses = node::deadline_misses(topic);
     std::uint64_t earlier = 0;
     if (before != nullptr) {
       for (const TopicHealth& t : before->topics())
-        if (t.topic() == topic.topic())
-          earlier = std::uint64_t{t.requested_deadline_missed()} + t.offered_deadline_missed();
+        if (t.topic() == topic.topic()) earlier = node::deadline_misses(t);
     }
     // Fewer than before: a new process of the service, counting from zero again.
     const std::uint64_t added = misses >= earlier ? misses - earlier : misses;
@@ -196,8 +194,7 @@ LatencySummary Supervisor::summary() const {
   for (const auto& [key, h] : health_) {
     s.bad_inputs += h.errors();
     for (const auto& topic : h.topics()) {
-      const std::uint64_t misses =
-          topic.requested_deadline_missed() + topic.offered_deadline_missed();
+      const std::uint64_t misses = node::deadline_misses(topic);
       s.deadline_misses += misses;
       if (misses == 0) continue;
       const std::string endpoint = h.service().to_string() + " " + topic.topic().to_string();

@@ -41,10 +41,13 @@ const char* health_state_name(HealthState state) {
   return i < std::size(kNames) ? kNames[i] : "unknown";
 }
 
+std::uint64_t deadline_misses(const TopicHealth& topic) {
+  return std::uint64_t{topic.requested_deadline_missed()} + topic.offered_deadline_missed();
+}
+
 std::uint64_t deadline_misses(const Health& health) {
   std::uint64_t misses = 0;
-  for (const TopicHealth& t : health.topics())
-    misses += std::uint64_t{t.requested_deadline_missed()} + t.offered_deadline_missed();
+  for (const TopicHealth& t : health.topics()) misses += deadline_misses(t);
   return misses;
 }
 

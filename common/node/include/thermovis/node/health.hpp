@@ -25,8 +25,9 @@ inline constexpr std::string_view kSourcePreparing = "source preparing: ";
 
 // "starting", "ok", "degraded", "failed" or "stopping" ("unknown" for a value out of the enum).
 const char* health_state_name(HealthState state);
-// DDS deadlines missed on every topic of `health`, reader side (requested) and writer side
-// (offered) together.
+// DDS deadlines missed on one topic of a health message, or on every topic of `health`, reader
+// side (requested) and writer side (offered) together.
+std::uint64_t deadline_misses(const TopicHealth& topic);
 std::uint64_t deadline_misses(const Health& health);
 
 // Writes "SERVICE: bad input #COUNT: MESSAGE" to stderr for the first bad inputs one by one,
