@@ -159,7 +159,7 @@ struct HostStallReport {
   std::string scheduling;
   std::vector<int> cpus;
   thermovis::process::HostStallSummary stalls;
-  std::uint64_t over_deadline = 0, over_deadline_in_stalls = 0;
+  std::uint64_t over_deadline_in_stalls = 0;  // of LatencySummary::over_deadline
   std::uint64_t deadline_misses = 0, deadline_misses_in_stalls = 0;
   std::map<std::string, std::uint64_t> misses_outside_stalls;  // by "service topic"
 };
@@ -172,7 +172,6 @@ void attribute_to_stalls(HostStallReport& r,
                          const thermovis::supervisor::LatencySummary& latency,
                          const std::vector<thermovis::supervisor::LateFrame>& late) {
   r.stalls = thermovis::process::summarize(stalls, r.cpus);
-  r.over_deadline = late.size();
   for (const auto& frame : late)
     r.over_deadline_in_stalls +=
         thermovis::process::during_stall(stalls, frame.capture_ns, frame.output_ns, kStallMs);
@@ -196,19 +195,19 @@ nlohmann::json host_stall_json(const HostStallReport& r) {
           {"max_ms", r.stalls.max_ms},
           {"total_ms", r.stalls.total_ms},
           {"over_5ms_by_cpu", by_cpu},
-          {"over_deadline", r.over_deadline},
           {"over_deadline_in_stalls", r.over_deadline_in_stalls},
           {"deadline_misses", r.deadline_misses},
           {"deadline_misses_in_stalls", r.deadline_misses_in_stalls},
           {"deadline_misses_outside_stalls_by_endpoint", r.misses_outside_stalls}};
 }
 
-std::string host_stall_text(const HostStallReport& r, double deadline_ms) {
+std::string host_stall_text(const HostStallReport& r, std::uint64_t over_deadline,
+                            double deadline_ms) {
   std::ostringstream out;
   out << std::fixed << std::setprecision(1) << "  host: CPUs stopped " << r.stalls.over_5ms
       << " times for 5 ms or more (" << r.stalls.over_10ms << " for 10 ms or more, longest "
       << r.stalls.max_ms << " ms; a probe at " << r.scheduling << " on " << r.cpus.size()
-      << " CPUs); during them: " << r.over_deadline_in_stalls << " of " << r.over_deadline
+      << " CPUs); during them: " << r.over_deadline_in_stalls << " of " << over_deadline
       << " frames over " << deadline_ms << " ms, " << r.deadline_misses_in_stalls << " of "
       << r.deadline_misses << " DEADLINE misses\n";
   return out.str();
@@ -402,7 +401,7 @@ int run_bench(Options& opt) {
       std::cout << "):\n";
     }
     std::cout << thermovis::supervisor::summary_text(latency, session.deadline_ms());
-    if (host) std::cout << host_stall_text(*host, session.deadline_ms());
+    if (host) std::cout << host_stall_text(*host, latency.over_deadline, session.deadline_ms());
     for (const auto& p : cpu) {
       std::cout << "  process " << std::setw(13) << std::left << p.service << std::right << " cpu "
                 << std::fixed << std::setprecision(1) << std::setw(6) << p.cpu_percent << " %  rss "

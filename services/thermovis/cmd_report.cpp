@@ -651,9 +651,10 @@ std::string pipeline_tables(const std::vector<json>& rows) {
     s += " The machine's CPUs stopped " + count("over_5ms") + " times for 5 ms or more (" +
          count("over_10ms") + " for 10 ms or more, longest " + fixed(h.at("max_ms"), 1) +
          " ms, seen by a probe at " + h.at("probe").get<std::string>() + " on each CPU); " +
-         count("over_deadline_in_stalls") + " of the " + count("over_deadline") +
-         " frames over the deadline and " + count("deadline_misses_in_stalls") + " of the " +
-         count("deadline_misses") + " DEADLINE misses fell in one.";
+         count("over_deadline_in_stalls") + " of the " +
+         std::to_string(r.at("over_deadline").get<long>()) + " frames over the deadline and " +
+         count("deadline_misses_in_stalls") + " of the " + count("deadline_misses") +
+         " DEADLINE misses fell in one.";
   }
   s += "\n\n";
   s += table_head({"process", "CPU (% of one core)", "RSS (MB)", "scheduling"});
