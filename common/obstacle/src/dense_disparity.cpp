@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "thermovis/obstacle/block_matching.hpp"
 #include "thermovis/util/enum_names.hpp"
 
 namespace thermovis::obstacle {
@@ -198,18 +199,31 @@ cv::Mat dense_disparity(const cv::Mat& left, const cv::Mat& right, double max_di
   const int range = 16 * static_cast<int>(std::ceil(max_disparity_px / 16.0));
   cv::Mat fixed;  // CV_16S, 1/16 px
   if (options.method == DenseMethod::block_matching) {
-    // One matcher per thread, kept: it keeps its work buffers (sized to the image and the
-    // range) from call to call instead of allocating them for every capture. Every setting is
-    // made again below, so nothing of the last call's options stays.
-    thread_local const cv::Ptr<cv::StereoBM> bm = cv::StereoBM::create(range, options.block_size);
-    bm->setNumDisparities(range);
-    bm->setBlockSize(options.block_size);
-    bm->setUniquenessRatio(options.uniqueness_ratio);
-    bm->setTextureThreshold(block_texture_threshold(left, options));
-    bm->setSpeckleWindowSize(options.speckle_window);
-    bm->setSpeckleRange(16 * options.speckle_range_px);
-    bm->setPreFilterCap(31);
-    bm->compute(left, right, fixed);
+    const BlockMatchParams block{range, options.block_size, block_texture_threshold(left, options),
+                                 options.uniqueness_ratio, 31};
+    if (block_match_supported(left, right, block)) {
+      // StereoBM's result to the bit (block_matching.hpp), then its speckle filter as it runs it.
+      block_match(left, right, block, fixed);
+      if (options.speckle_window > 0 && options.speckle_range_px >= 0) {
+        thread_local cv::Mat speckle_buffer;
+        cv::filterSpeckles(fixed, -16, options.speckle_window, 16 * options.speckle_range_px,
+                           speckle_buffer);
+      }
+    } else {
+      // What block_match does not cover (a block over 21 px, an image smaller than the block):
+      // OpenCV's, with its own checks. One matcher per thread, kept: it keeps its work buffers
+      // from call to call. Every setting is made again below, so nothing of the last call's
+      // options stays.
+      thread_local const cv::Ptr<cv::StereoBM> bm = cv::StereoBM::create(range, options.block_size);
+      bm->setNumDisparities(range);
+      bm->setBlockSize(options.block_size);
+      bm->setUniquenessRatio(options.uniqueness_ratio);
+      bm->setTextureThreshold(block.texture_threshold);
+      bm->setSpeckleWindowSize(options.speckle_window);
+      bm->setSpeckleRange(16 * options.speckle_range_px);
+      bm->setPreFilterCap(31);
+      bm->compute(left, right, fixed);
+    }
   } else {
     const int b = options.block_size;
     auto sgbm = cv::StereoSGBM::create(

@@ -10,9 +10,12 @@
 #include <benchmark/benchmark.h>
 
 #include <array>
+#include <cmath>
 
+#include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
 
+#include "thermovis/obstacle/block_matching.hpp"
 #include "thermovis/obstacle/obstacles.hpp"
 #include "thermovis/pipeline/capture_pipeline.hpp"
 #include "thermovis/runtime/rig_io.hpp"
@@ -141,6 +144,59 @@ void BM_VisibleFromDisparity(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_VisibleFromDisparity)->Unit(benchmark::kMillisecond);
+
+// Block matching of one reduced pair as the stage does it (its range, block, texture threshold
+// and uniqueness; 0: visible, 1: infrared, its right eye resampled onto the left's rows), ours
+// (obstacle::block_match) against OpenCV's cv::StereoBM, which it equals to the bit, both
+// without the speckle filter they share. Compare the two in one run.
+struct ReducedPair {
+  cv::Mat left, right;
+  ob::BlockMatchParams params;
+};
+
+ReducedPair reduced_pair(const Fixture& f, int band) {
+  ReducedPair p;
+  const ob::ObstacleDetector& detector = *f.detectors[1];
+  const bool visible = band == 0;
+  detector.reduce_pair(visible ? ob::PairBand::visible : ob::PairBand::infrared,
+                       visible ? f.capture.grey_left : f.capture.infrared_left,
+                       visible ? f.capture.grey_right : f.capture.infrared_right, p.left, p.right);
+  ob::DenseOptions dense = detector.options().dense;
+  if (!visible) dense.texture_noise_factor = detector.options().counts_texture_noise_factor;
+  p.params.disparities = 16 * static_cast<int>(std::ceil(detector.max_disparity_px() / 16.0));
+  p.params.block = dense.block_size;
+  p.params.texture_threshold = ob::block_texture_threshold(p.left, dense);
+  p.params.uniqueness_ratio =
+      visible ? dense.uniqueness_ratio : detector.options().off_axis_uniqueness_ratio;
+  return p;
+}
+
+void BM_BlockMatchOurs(benchmark::State& state) {
+  const ReducedPair p = reduced_pair(fixture(), static_cast<int>(state.range(0)));
+  state.SetLabel(state.range(0) == 0 ? "visible" : "infrared");
+  cv::Mat d;
+  for (auto _ : state) {
+    ob::block_match(p.left, p.right, p.params, d);
+    benchmark::DoNotOptimize(d.data);
+  }
+}
+BENCHMARK(BM_BlockMatchOurs)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+
+void BM_BlockMatchOpenCv(benchmark::State& state) {
+  const ReducedPair p = reduced_pair(fixture(), static_cast<int>(state.range(0)));
+  state.SetLabel(state.range(0) == 0 ? "visible" : "infrared");
+  const cv::Ptr<cv::StereoBM> bm = cv::StereoBM::create(p.params.disparities, p.params.block);
+  bm->setPreFilterCap(p.params.prefilter_cap);
+  bm->setTextureThreshold(p.params.texture_threshold);
+  bm->setUniquenessRatio(p.params.uniqueness_ratio);
+  bm->setSpeckleWindowSize(0);
+  cv::Mat d;
+  for (auto _ : state) {
+    bm->compute(p.left, p.right, d);
+    benchmark::DoNotOptimize(d.data);
+  }
+}
+BENCHMARK(BM_BlockMatchOpenCv)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 
