@@ -303,7 +303,7 @@ void ObstacleDetector::reduce_pair(PairBand band, const cv::Mat& left, const cv:
 }
 
 void ObstacleDetector::triangulate(const Pair& p, const cv::Mat& disparity, cv::Mat& points,
-                                   bool ground_columns) const {
+                                   bool ground_columns, const std::vector<bool>* columns) const {
   const camera::RectifiedCamera& grid = p.reduced.grid;
   const auto& r = grid.intrinsics();
   const Eigen::Vector3d& right_centre = p.reduced.right_centre_m;
@@ -326,6 +326,7 @@ void ObstacleDetector::triangulate(const Pair& p, const cv::Mat& disparity, cv::
     // Each pixel of the columns asked for is written, its point or NaN, so a buffer reused from
     // the last capture needs no reset.
     auto point = [&](int c) {
+      if (columns != nullptr && !(*columns)[static_cast<std::size_t>(c)]) return;
       out[c] = none;
       if (!(d[c] > 0)) return;
       const auto i = static_cast<std::size_t>(c);
@@ -391,6 +392,7 @@ std::vector<Stixel> ObstacleDetector::stixels(const Pair& p, const cv::Mat& disp
     const auto* pv = points.ptr<cv::Vec3f>(row);
     auto* st = stand.ptr<std::uint8_t>(row);
     for (int c = 0; c < r.width; ++c) {
+      if (columns != nullptr && !(*columns)[static_cast<std::size_t>(c)]) continue;
       const cv::Vec3f& P = pv[c];
       st[c] = 0;
       if (!std::isfinite(P[2])) continue;
@@ -966,9 +968,6 @@ void ObstacleDetector::add_far_band(const Pair& p, const cv::Mat& left, const cv
   const cv::Mat disparity = dense_disparity(
       left8, right8, range::max_disparity_for(band.reduced, options_.far_band_min_distance_m),
       dense);
-  thread_local cv::Mat points;
-  triangulate(band, disparity, points, true);
-  triangulate(band, disparity, points, false);
   // Only the grid columns of reduced columns without a stixel.
   const int k = options_.reduction;
   const int width = grid_.width / k;
@@ -978,6 +977,9 @@ void ObstacleDetector::add_far_band(const Pair& p, const cv::Mat& left, const cv
       columns[static_cast<std::size_t>(x)] = false;
     }
   }
+  thread_local cv::Mat points;
+  triangulate(band, disparity, points, true, &columns);
+  triangulate(band, disparity, points, false, &columns);
   std::vector<int> ground_pixels;
   const std::vector<Stixel> found =
       stixels(band, disparity, points, ground, out.ground_reporting, ground_pixels, &columns);

@@ -322,11 +322,13 @@ class ObstacleDetector {
   void refine(const Pair& p, const cv::Mat& left, const cv::Mat& right, PairObstacles& out) const;
   // Each pixel's point (left rectified frame, NaN where it has none) into `points` (made the
   // disparity's size when it is not): the columns the ground is fitted on
-  // (GroundOptions::column_step), or the others.
-  void triangulate(const Pair& p, const cv::Mat& disparity, cv::Mat& points,
-                   bool ground_columns) const;
-  // The columns' stixels (of those `columns` marks, when given); ground_pixels: per reduced
-  // column, its pixels on the ground.
+  // (GroundOptions::column_step), or the others; of those, only the ones `columns` marks when
+  // it is given (the others' points are left as they were).
+  void triangulate(const Pair& p, const cv::Mat& disparity, cv::Mat& points, bool ground_columns,
+                   const std::vector<bool>* columns = nullptr) const;
+  // The columns' stixels (of those `columns` marks, when given: only their pixels are looked
+  // at, and ground_pixels counts only theirs); ground_pixels: per reduced column, its pixels on
+  // the ground.
   std::vector<Stixel> stixels(const Pair& p, const cv::Mat& disparity, const cv::Mat& points,
                               const GroundPlane& ground, const GroundPlane& ground_reporting,
                               std::vector<int>& ground_pixels,
