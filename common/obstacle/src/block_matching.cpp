@@ -149,10 +149,11 @@ void BestDisparities(const std::uint16_t* sums, std::ptrdiff_t stride, int dispa
   }
 }
 
-// Each pixel's disparity (1/16 px) from RowBest, or -16: StereoBM's texture and uniqueness tests
-// and its parabola through the best's neighbours, in 32-bit lanes. The division is a float one
-// truncated: its numerator is under 2^24 and exact, and an inexact quotient (at most 128) lies
-// at least 1 / denominator >= 2^-16 from an integer, farther than the float's error (2^-17).
+// Each pixel's disparity (1/16 px) from RowBest, or kBlockMatchNone: StereoBM's texture and
+// uniqueness tests and its parabola through the best's neighbours, in 32-bit lanes. The division is
+// a float one truncated: its numerator is under 2^24 and exact, and an inexact quotient (at most
+// 128) lies at least 1 / denominator >= 2^-16 from an integer, farther than the float's error
+// (2^-17).
 void FinishRow(const RowBest& in, int first, int end, int disparities, int texture_threshold,
                int uniqueness_ratio, std::int16_t* out) {
   const hn::ScalableTag<std::int32_t> d32;
@@ -162,7 +163,7 @@ void FinishRow(const RowBest& in, int first, int end, int disparities, int textu
   const auto lanes = static_cast<int>(hn::Lanes(d32));
   const auto load = [&](const std::uint16_t* p) { return hn::PromoteTo(d32, hn::LoadU(d16, p)); };
   const auto zero = hn::Zero(d32), one = hn::Set(d32, 1);
-  const auto none = hn::Set(d32, -16);
+  const auto none = hn::Set(d32, kBlockMatchNone);
   const auto threshold = hn::Set(d32, texture_threshold);
   const auto ratio = hn::Set(d32, uniqueness_ratio);
   const auto hundred = hn::Set(d32, 100);
@@ -262,11 +263,10 @@ void block_match(const cv::Mat& left, const cv::Mat& right, const BlockMatchPara
         "block matching: the images are not CV_8UC1 of one size larger than the block, or the "
         "disparities are not a positive multiple of 16, or the block is not odd in 5..21");
   }
-  constexpr short kNone = -16;
   const int rows = left.rows, cols = left.cols, half = p.block / 2, cap = p.prefilter_cap;
   const int disparities = p.disparities;
   disparity.create(rows, cols, CV_16SC1);
-  disparity.setTo(kNone);
+  disparity.setTo(kBlockMatchNone);
   // Column u of the sums is image column first_column + u; the outputs are u in [first, end).
   const int first_column = disparities - 1;
   const int width = cols - first_column, first = half, end = width - half;

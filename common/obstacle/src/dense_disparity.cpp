@@ -202,13 +202,7 @@ cv::Mat dense_disparity(const cv::Mat& left, const cv::Mat& right, double max_di
     const BlockMatchParams block{range, options.block_size, block_texture_threshold(left, options),
                                  options.uniqueness_ratio, 31};
     if (block_match_supported(left, right, block)) {
-      // StereoBM's result to the bit (block_matching.hpp), then its speckle filter as it runs it.
-      block_match(left, right, block, fixed);
-      if (options.speckle_window > 0 && options.speckle_range_px >= 0) {
-        thread_local cv::Mat speckle_buffer;
-        cv::filterSpeckles(fixed, -16, options.speckle_window, 16 * options.speckle_range_px,
-                           speckle_buffer);
-      }
+      block_match(left, right, block, fixed);  // StereoBM's result to the bit
     } else {
       // What block_match does not cover (a block over 21 px, an image smaller than the block):
       // OpenCV's, with its own checks. One matcher per thread, kept: it keeps its work buffers
@@ -219,10 +213,15 @@ cv::Mat dense_disparity(const cv::Mat& left, const cv::Mat& right, double max_di
       bm->setBlockSize(options.block_size);
       bm->setUniquenessRatio(options.uniqueness_ratio);
       bm->setTextureThreshold(block.texture_threshold);
-      bm->setSpeckleWindowSize(options.speckle_window);
-      bm->setSpeckleRange(16 * options.speckle_range_px);
-      bm->setPreFilterCap(31);
+      bm->setSpeckleWindowSize(0);  // below, for both
+      bm->setPreFilterCap(block.prefilter_cap);
       bm->compute(left, right, fixed);
+    }
+    // StereoBM's speckle filter, as it runs it on its own result.
+    if (options.speckle_window > 0 && options.speckle_range_px >= 0) {
+      thread_local cv::Mat speckle_buffer;
+      cv::filterSpeckles(fixed, kBlockMatchNone, options.speckle_window,
+                         16 * options.speckle_range_px, speckle_buffer);
     }
   } else {
     const int b = options.block_size;

@@ -147,36 +147,40 @@ TEST(BlockMatching, EqualsOpenCvStereoBmOnEveryTarget) {
   EXPECT_GT(matched_pixels, 100000);
 }
 
-// The dense stage's block matching (block_match and StereoBM's speckle filter) gives what
-// cv::StereoBM gives with the same settings, speckle filter included.
+// The dense stage's block matching (block_match and StereoBM's speckle filter; a block over 21 px:
+// StereoBM itself, its speckle filter run after it) gives what cv::StereoBM gives with the same
+// settings, speckle filter included.
 TEST(BlockMatching, DenseDisparityEqualsOpenCvWithSpeckleFilter) {
   const Pair pair = scene(468, 138, 0, 7);
-  ob::DenseOptions options;  // the stage's: block 7, uniqueness 12, speckles 40 px within 1 px
-  const int threshold = ob::block_texture_threshold(pair.left, options);
-  const cv::Ptr<cv::StereoBM> bm = cv::StereoBM::create(32, options.block_size);
-  bm->setPreFilterCap(31);
-  bm->setTextureThreshold(threshold);
-  bm->setUniquenessRatio(options.uniqueness_ratio);
-  bm->setSpeckleWindowSize(options.speckle_window);
-  bm->setSpeckleRange(16 * options.speckle_range_px);
-  cv::Mat fixed;
-  bm->compute(pair.left, pair.right, fixed);
-  const cv::Mat ours = ob::dense_disparity(pair.left, pair.right, 30.0, options);
-  ASSERT_EQ(ours.size(), fixed.size());
-  int valid = 0;
-  for (int y = 0; y < fixed.rows; ++y) {
-    for (int x = 0; x < fixed.cols; ++x) {
-      const short f = fixed.at<short>(y, x);
-      const float d = ours.at<float>(y, x);
-      if (f > 0) {
-        ++valid;
-        ASSERT_EQ(d, static_cast<float>(f) / 16.f) << x << ", " << y;
-      } else {
-        ASSERT_TRUE(std::isnan(d)) << x << ", " << y;
+  for (const int block : {7, 23}) {
+    ob::DenseOptions options;  // the stage's: uniqueness 12, speckles 40 px within 1 px
+    options.block_size = block;
+    const int threshold = ob::block_texture_threshold(pair.left, options);
+    const cv::Ptr<cv::StereoBM> bm = cv::StereoBM::create(32, options.block_size);
+    bm->setPreFilterCap(31);
+    bm->setTextureThreshold(threshold);
+    bm->setUniquenessRatio(options.uniqueness_ratio);
+    bm->setSpeckleWindowSize(options.speckle_window);
+    bm->setSpeckleRange(16 * options.speckle_range_px);
+    cv::Mat fixed;
+    bm->compute(pair.left, pair.right, fixed);
+    const cv::Mat ours = ob::dense_disparity(pair.left, pair.right, 30.0, options);
+    ASSERT_EQ(ours.size(), fixed.size());
+    int valid = 0;
+    for (int y = 0; y < fixed.rows; ++y) {
+      for (int x = 0; x < fixed.cols; ++x) {
+        const short f = fixed.at<short>(y, x);
+        const float d = ours.at<float>(y, x);
+        if (f > 0) {
+          ++valid;
+          ASSERT_EQ(d, static_cast<float>(f) / 16.f) << "block " << block << ": " << x << ", " << y;
+        } else {
+          ASSERT_TRUE(std::isnan(d)) << "block " << block << ": " << x << ", " << y;
+        }
       }
     }
+    EXPECT_GT(valid, fixed.rows * fixed.cols / 4) << "block " << block;
   }
-  EXPECT_GT(valid, fixed.rows * fixed.cols / 4);
 }
 
 TEST(BlockMatching, RefusesWhatItDoesNotCover) {

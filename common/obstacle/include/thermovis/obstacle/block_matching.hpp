@@ -34,9 +34,11 @@ struct BlockMatchParams {
 // what it refuses: sizes, a block as large as the image).
 bool block_match_supported(const cv::Mat& left, const cv::Mat& right, const BlockMatchParams& p);
 
-// CV_16S disparity, 1/16 px, -16 where there is none (StereoBM's minimum disparity 0 less one,
-// in its units). The inputs are CV_8UC1 of one size; throws std::invalid_argument unless
-// block_match_supported.
+// A pixel without a disparity: StereoBM's minimum disparity (0) less one, in its 1/16 px.
+inline constexpr short kBlockMatchNone = -16;
+
+// CV_16S disparity, 1/16 px, kBlockMatchNone where there is none. The inputs are CV_8UC1 of one
+// size; throws std::invalid_argument unless block_match_supported.
 void block_match(const cv::Mat& left, const cv::Mat& right, const BlockMatchParams& p,
                  cv::Mat& disparity);
 
